@@ -354,11 +354,11 @@ class polygon_set final {
         corners.unite(e1 * D + (uses[i].local + s) % D, e2 * D + k2);
       }
     });
-    // corner normals: angle-weighted sum over each smooth group of corners
+    // corner normals: Max (1999) weighted sum over each smooth group of corners
     points<D> group_sum = points<D>::Zero(D, n * D);
     for (index_t e = 0; e < n; ++e) {
       const mat<D> v = m.element(e);
-      for (int k = 0; k < D; ++k) group_sum.col(corners.find(e * D + k)) += detail::corner_weight<D>(v, k) * ref_normals_.col(e);
+      for (int k = 0; k < D; ++k) group_sum.col(corners.find(e * D + k)) += detail::max_weight<D>(v, k) * ref_normals_.col(e);
     }
     ref_corner_normals_.resize(D, n * D);
     for (index_t c = 0; c < n * D; ++c) ref_corner_normals_.col(c) = group_sum.col(corners.find(c)).normalized();

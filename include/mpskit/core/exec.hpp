@@ -1,0 +1,84 @@
+#pragma once
+/// \file core/exec.hpp
+/// \brief The one loop primitive (ARCHITECTURE.md §5): `for_each_particle(exec, n, f)` and a block
+/// reduction whose result does not depend on the thread count. Physics code never spells `#pragma omp`.
+#include <algorithm>
+#include <concepts>
+#include <cstddef>
+#include <vector>
+
+#include "mpskit/core/dimension.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace mpskit::exec {
+/// Sequential execution.
+struct seq {};
+/// Parallel execution over OpenMP threads (sequential when the consumer does not link mpskit::openmp).
+struct par {};
+}  // namespace mpskit::exec
+
+namespace mpskit {
+
+/// An execution tag: exec::seq or exec::par.
+template <class E>
+concept Execution = std::same_as<E, exec::seq> || std::same_as<E, exec::par>;
+
+/// Number of threads exec::par uses now (1 without OpenMP).
+inline int max_threads() {
+#ifdef _OPENMP
+  return omp_get_max_threads();
+#else
+  return 1;
+#endif
+}
+
+/// Calls f(i) for i in [0, n). Each call must write only slot i (ARCHITECTURE.md §5).
+template <Execution E, class F>
+void for_each_particle(E, index_t n, F&& f) {
+  if constexpr (std::same_as<E, exec::par>) {
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static)
+    for (index_t i = 0; i < n; ++i) f(i);
+    return;
+#endif
+  }
+  for (index_t i = 0; i < n; ++i) f(i);
+}
+
+/// Fixed block size of reductions: partial results per block of this many items are combined in
+/// block order, so a reduction is bitwise identical for any thread count.
+inline constexpr index_t reduction_block = 4096;
+
+/// Calls f(b, begin, end) for each fixed block b of [0, n) (blocks of `block` items).
+template <Execution E, class F>
+void for_each_block(E e, index_t n, index_t block, F&& f) {
+  const index_t nb = (n + block - 1) / block;
+  for_each_particle(e, nb, [&](index_t b) { f(b, b * block, std::min(n, (b + 1) * block)); });
+}
+
+/// Deterministic reduction: `init` combined with map(i) over [0, n) through `combine`, summed
+/// sequentially inside fixed blocks and then across blocks in order (thread-count independent).
+template <Execution E, class T, class Map, class Combine>
+T reduce(E e, index_t n, T init, Map&& map, Combine&& combine) {
+  const index_t nb = (n + reduction_block - 1) / reduction_block;
+  std::vector<T> partial(static_cast<std::size_t>(nb), init);
+  for_each_block(e, n, reduction_block, [&](index_t b, index_t lo, index_t hi) {
+    T acc = init;
+    for (index_t i = lo; i < hi; ++i) acc = combine(acc, map(i));
+    partial[static_cast<std::size_t>(b)] = acc;
+  });
+  T total = init;
+  for (const T& p : partial) total = combine(total, p);
+  return total;
+}
+
+/// Deterministic sum of map(i) over [0, n).
+template <Execution E, class Map>
+double reduce_sum(E e, index_t n, Map&& map) {
+  return reduce(e, n, 0.0, map, [](double a, double b) { return a + b; });
+}
+
+}  // namespace mpskit

@@ -1,0 +1,237 @@
+// core/: fields, particle state and its one resize path, loops and reductions, params validation.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
+#include "mpskit/core/params.hpp"
+#include "mpskit/core/state.hpp"
+
+using namespace mpskit;
+
+// Field lists: the union keeps first appearance and drops duplicates.
+using lp = field_list<field::pressure, field::volume>;
+using lq = field_list<field::volume, field::partner>;
+static_assert(std::same_as<field_union<lp, lq>, field_list<field::pressure, field::volume, field::partner>>);
+static_assert(FieldTag<field::pressure> && !FieldTag<int>);
+// A state holds exactly what is asked: a wall-less single-resolution state has no volume array.
+using bare_state = particle_state<2>;
+using rich_state = particle_state<2, field_list<field::pressure, field::partner>>;
+static_assert(!bare_state::has<field::volume> && !bare_state::has<field::pressure>);
+static_assert(rich_state::has<field::pressure> && rich_state::has<field::partner> && rich_state::has<field::id>);
+static_assert(std::same_as<field_storage_t<field::pressure, 3>, Eigen::VectorXd>);
+static_assert(std::same_as<field_storage_t<field::velocity, 3>, points<3>>);
+static_assert(std::same_as<field_storage_t<field::partner, 3>, std::vector<index_t>>);
+
+namespace {
+std::uint64_t seed_from_env() {
+  const std::uint64_t seed = 20261122;
+  MESSAGE("RNG seed " << seed);
+  return seed;
+}
+
+// A state where every field is a known function of the id, and partner(i) = particle with id+3 (mod n).
+rich_state make_state(index_t n) {
+  rich_state s(n);
+  auto& p = s.get<field::pressure>();
+  auto& partner = s.get<field::partner>();
+  for (index_t i = 0; i < n; ++i) {
+    const double id = static_cast<double>(s.ids()[static_cast<std::size_t>(i)]);
+    s.x().col(i) << id, -id;
+    s.u().col(i) << 2 * id, 0.5;
+    p[i] = 1.5 * id;
+    partner[static_cast<std::size_t>(i)] = (i + 3) % n;
+    s.kinds()[static_cast<std::size_t>(i)] = (i % 4 == 0) ? kind::wall : kind::fluid;
+  }
+  return s;
+}
+
+// Every field still matches its particle's id; partner references resolve to the right ids.
+void check_consistent(const rich_state& s, const std::map<particle_id, particle_id>& partner_of) {
+  const auto& p = s.get<field::pressure>();
+  const auto& partner = s.get<field::partner>();
+  for (index_t i = 0; i < s.n_real(); ++i) {
+    const particle_id id = s.ids()[static_cast<std::size_t>(i)];
+    const double d = static_cast<double>(id);
+    CHECK(s.x()(0, i) == d);
+    CHECK(s.x()(1, i) == -d);
+    CHECK(s.u()(0, i) == 2 * d);
+    CHECK(p[i] == 1.5 * d);
+    const index_t q = partner[static_cast<std::size_t>(i)];
+    const auto it = partner_of.find(id);
+    if (it == partner_of.end()) {
+      CHECK(q == npos);
+    } else {
+      REQUIRE(q != npos);
+      CHECK(s.ids()[static_cast<std::size_t>(q)] == it->second);
+    }
+  }
+}
+}  // namespace
+
+TEST_SUITE("core") {
+  TEST_CASE("core: reorder, remove and append keep every field and index consistent") {
+    const index_t n = 200;
+    rich_state s = make_state(n);
+    std::map<particle_id, particle_id> partner_of;
+    for (index_t i = 0; i < n; ++i) partner_of[static_cast<particle_id>(i)] = static_cast<particle_id>((i + 3) % n);
+    check_consistent(s, partner_of);
+
+    std::mt19937_64 rng(seed_from_env());
+    std::vector<index_t> perm(static_cast<std::size_t>(n));
+    std::iota(perm.begin(), perm.end(), 0);
+    std::shuffle(perm.begin(), perm.end(), rng);
+    const resize_report r1 = s.reorder(perm);
+    CHECK(r1.removed == 0);
+    CHECK(r1.appended == 0);
+    CHECK(r1.reordered > n / 2);
+    CHECK(r1.remap(perm[7]) == 7);
+    check_consistent(s, partner_of);
+
+    // Remove every particle whose id is a multiple of 5: references to them become npos and are counted.
+    std::vector<char> mask(static_cast<std::size_t>(n));
+    index_t lost = 0;
+    for (index_t i = 0; i < n; ++i) mask[static_cast<std::size_t>(i)] = s.ids()[static_cast<std::size_t>(i)] % 5 == 0;
+    for (auto& [id, pid] : partner_of)
+      if (id % 5 != 0 && pid % 5 == 0) ++lost;
+    std::erase_if(partner_of, [](const auto& kv) { return kv.first % 5 == 0 || kv.second % 5 == 0; });
+    const resize_report r2 = s.remove(mask);
+    CHECK(r2.removed == n / 5);
+    CHECK(s.n_real() == n - n / 5);
+    CHECK(r2.references_lost == lost);
+    check_consistent(s, partner_of);
+
+    // Append: fresh ids never reused, zero fields, the requested kind, others untouched.
+    const particle_id next = s.next_id();
+    CHECK(next == static_cast<particle_id>(n));
+    const index_t first = s.append(3, kind::dummy);
+    CHECK(first == n - n / 5);
+    for (index_t i = first; i < s.n_real(); ++i) {
+      CHECK(s.ids()[static_cast<std::size_t>(i)] == next + static_cast<particle_id>(i - first));
+      CHECK(s.kinds()[static_cast<std::size_t>(i)] == kind::dummy);
+      CHECK(s.get<field::partner>()[static_cast<std::size_t>(i)] == npos);
+      CHECK(s.get<field::pressure>()[i] == 0.0);
+    }
+    s.validate();
+  }
+
+  TEST_CASE("core: ghosts live after the real range, carry role and parent, and are promoted or cleared") {
+    rich_state s = make_state(10);
+    const index_t g = s.add_ghosts(4, ghost_role::fictitious);
+    CHECK(g == 10);
+    CHECK(s.n_real() == 10);
+    CHECK(s.n_ghost() == 4);
+    auto& parent = s.get<field::parent>();
+    for (index_t k = 0; k < 4; ++k) {
+      parent[static_cast<std::size_t>(g + k)] = 2 * k;
+      s.x().col(g + k) << 100.0 + k, 0.0;
+      CHECK(s.ids()[static_cast<std::size_t>(g + k)] == no_id);
+    }
+    s.validate();
+    CHECK_THROWS_AS(s.append(1, kind::fluid), mpskit::error);  // the ghost range must be empty first
+    const resize_report r = s.promote_ghosts({13, 11});
+    CHECK(r.promoted == 2);
+    CHECK(r.ghosts_cleared == 2);
+    CHECK(s.n_real() == 12);
+    CHECK(s.n_ghost() == 0);
+    CHECK(s.x()(0, 10) == 103.0);  // list order
+    CHECK(s.x()(0, 11) == 101.0);
+    CHECK(s.ids()[10] == 10);      // fresh ids
+    CHECK(s.ids()[11] == 11);
+    CHECK(s.get<field::role>()[10] == ghost_role::none);
+    CHECK(s.get<field::parent>()[10] == npos);
+    s.add_ghosts(2, ghost_role::imaginary);
+    s.get<field::parent>()[12] = 5;
+    CHECK_THROWS_AS(s.reorder(std::vector<index_t>(12)), mpskit::error);  // ghosts present
+    const resize_report rc = s.clear_ghosts();
+    CHECK(rc.ghosts_cleared == 2);
+    CHECK(s.size() == 12);
+  }
+
+  TEST_CASE("core: for_each_particle writes each slot once; reductions are blocked and ordered") {
+    const index_t n = 3 * reduction_block + 17;
+    std::vector<double> v(static_cast<std::size_t>(n));
+    for_each_particle(exec::par{}, n, [&](index_t i) { v[static_cast<std::size_t>(i)] = 1.0 / (1.0 + i); });
+    // Reference: the same fixed-block order spelt out by hand.
+    double ref = 0.0;
+    for (index_t b = 0; b < n; b += reduction_block) {
+      double part = 0.0;
+      for (index_t i = b; i < std::min(n, b + reduction_block); ++i) part += v[static_cast<std::size_t>(i)];
+      ref += part;
+    }
+    const double s = reduce_sum(exec::seq{}, n, [&](index_t i) { return v[static_cast<std::size_t>(i)]; });
+    CHECK(s == ref);  // bitwise: same association
+  }
+}
+
+TEST_SUITE("threads") {
+  TEST_CASE("core: reductions are bitwise identical for 1 and 2 threads") {
+#ifdef _OPENMP
+    const index_t n = 10 * reduction_block + 123;
+    std::mt19937_64 rng(seed_from_env());
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    std::vector<double> v(static_cast<std::size_t>(n));
+    for (auto& x : v) x = U(rng) * std::exp(20.0 * U(rng));  // wide range: association matters
+    auto map = [&](index_t i) { return v[static_cast<std::size_t>(i)]; };
+    omp_set_num_threads(1);
+    const double s1 = reduce_sum(exec::par{}, n, map);
+    omp_set_num_threads(2);
+    const double s2 = reduce_sum(exec::par{}, n, map);
+    CHECK(s1 == s2);
+#else
+    MESSAGE("built without OpenMP: exec::par is sequential, nothing to compare");
+#endif
+  }
+}
+
+TEST_SUITE("bad_input_core") {
+  TEST_CASE("core: validate names non-finite fields, size mismatches, ghost roles and duplicate ids") {
+    rich_state s = make_state(5);
+    s.validate();
+    s.x()(1, 3) = std::nan("");
+    CHECK_THROWS_WITH_AS(s.validate(), doctest::Contains("'position' of particle 3"), mpskit::error);
+    s.x()(1, 3) = 0.0;
+    s.get<field::pressure>()[2] = INFINITY;
+    CHECK_THROWS_WITH_AS(s.validate(), doctest::Contains("'pressure' of particle 2"), mpskit::error);
+    s.get<field::pressure>().resize(4);
+    CHECK_THROWS_WITH_AS(s.validate(), doctest::Contains("'pressure' has 4 entries"), mpskit::error);
+  }
+
+  TEST_CASE("core: the resize path refuses bad permutations, masks and ghost misuse") {
+    rich_state s = make_state(4);
+    CHECK_THROWS_WITH_AS(s.reorder({0, 1, 2}), doctest::Contains("3 entries"), mpskit::error);
+    CHECK_THROWS_WITH_AS(s.reorder({0, 1, 1, 3}), doctest::Contains("not a permutation"), mpskit::error);
+    CHECK_THROWS_WITH_AS(s.reorder({0, 1, 2, 4}), doctest::Contains("not a permutation"), mpskit::error);
+    CHECK_THROWS_AS(s.remove(std::vector<char>(3, 0)), mpskit::error);
+    CHECK_THROWS_AS(s.append(-1, kind::fluid), mpskit::error);
+    CHECK_THROWS_AS(s.add_ghosts(1, ghost_role::none), mpskit::error);
+    s.add_ghosts(2, ghost_role::imaginary);
+    CHECK_THROWS_WITH_AS(s.reorder({0, 1, 2, 3}), doctest::Contains("ghosts"), mpskit::error);
+    CHECK_THROWS_AS(s.promote_ghosts({1}), mpskit::error);  // not a ghost
+    s.clear_ghosts();
+    CHECK(s.size() == 4);
+  }
+
+  TEST_CASE("core: validator lists every bad value with its accepted range") {
+    validator v("test_params");
+    v.positive("l0", 0.0).positive("rho", 1000.0).in_range("alpha", 2.0, 0.0, 1.0).finite("g", std::nan(""));
+    CHECK(v.problems().size() == 3);
+    try {
+      v.throw_if_any();
+      FAIL("no throw");
+    } catch (const mpskit::error& e) {
+      const std::string m = e.what();
+      CHECK(m.find("test_params.l0 = 0: must be a finite number > 0") != std::string::npos);
+      CHECK(m.find("test_params.alpha = 2: must be in [0, 1]") != std::string::npos);
+      CHECK(m.find("test_params.g = nan") != std::string::npos);
+      CHECK(m.find("rho") == std::string::npos);
+    }
+  }
+}
