@@ -134,7 +134,7 @@ class polygon_set final {
   /// Corner normal of element e at local vertex k: averaged over the elements around the vertex that
   /// are reachable without crossing a feature facet (used by the curvature, Tanaka eq. 77).
   vec<D> corner_normal(index_t e, int k) const { return corner_normals_.col(e * D + k); }
-  /// True if element e touches a feature facet (or a non-manifold one): its curvature is 0.
+  /// True if a vertex of element e lies on a feature facet (or a non-manifold one): its curvature is 0.
   bool feature_adjacent(index_t e) const { return feature_adjacent_[e] != 0; }
   /// Bounding-box diagonal of the reference geometry (m).
   double scale() const { return scale_; }
@@ -184,8 +184,8 @@ class polygon_set final {
   /// Wall curvature at a closest point, Tanaka 2018 eq. (77):
   /// σ = −Σ_v w_v (n_t − n_v)·(n_t − n_v) / Σ_v w_v (x_t − x_v)·(n_t − n_v), with x_t, n_t the means of
   /// the element's vertices and corner normals and w_v the barycentric weights of the closest point.
-  /// Sign: +1/R on a circle/sphere with the fluid inside, −1/R with the fluid outside. Elements next
-  /// to a feature facet, and elements whose corner normals agree to 1e-10 (flat), return 0.
+  /// Sign: +1/R on a circle/sphere with the fluid inside, −1/R with the fluid outside. Elements with a
+  /// vertex on a feature facet, and elements whose corner normals agree to 1e-10 (flat), return 0.
   double curvature(const closest_point<D>& c) const {
     MPSKIT_ASSERT(c.found());
     const index_t e = c.element;
@@ -325,6 +325,7 @@ class polygon_set final {
     }
     normalise_columns(ref_vertex_normals_);
     feature_adjacent_.assign(static_cast<std::size_t>(n), 0);
+    std::vector<char> feature_vertex(static_cast<std::size_t>(nv), 0);
     const std::vector<detail::facet_use> uses = detail::facet_uses(m);
     detail::disjoint_sets corners(n * D);
     if constexpr (D == 3) ref_edge_normals_ = points<D>::Zero(D, n * D);
@@ -343,7 +344,7 @@ class polygon_set final {
         feature = c < cos_feature_ || uses[i].dir == uses[i + 1].dir;
       }
       if (feature) {
-        for (std::size_t k = i; k < j; ++k) feature_adjacent_[uses[k].element] = 1;
+        for (int s = 0; s < D - 1; ++s) feature_vertex[elements_((uses[i].local + s) % D, uses[i].element)] = 1;
         return;
       }
       const index_t e1 = uses[i].element, e2 = uses[i + 1].element;
@@ -354,6 +355,10 @@ class polygon_set final {
         corners.unite(e1 * D + (uses[i].local + s) % D, e2 * D + k2);
       }
     });
+    // elements with a vertex on a feature facet get σ = 0 (Tanaka's eq. 77 assumes a smooth wall)
+    for (index_t e = 0; e < n; ++e)
+      for (int k = 0; k < D; ++k)
+        if (feature_vertex[elements_(k, e)]) feature_adjacent_[e] = 1;
     // corner normals: Max (1999) weighted sum over each smooth group of corners
     points<D> group_sum = points<D>::Zero(D, n * D);
     for (index_t e = 0; e < n; ++e) {

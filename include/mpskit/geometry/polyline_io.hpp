@@ -58,9 +58,9 @@ inline read_result<2> parse_polyline(const std::string& text, const std::string&
   for (index_t i = 0; i < nv; ++i) {
     const std::vector<std::string> c = next();
     if (c.empty()) fail(file, ":", lineno, ": file ends after ", i, " of ", nv, " vertices (truncated or wrong count)");
-    if (c.size() != 2)
-      fail(file, ":", lineno, ": vertex ", i, ": expected 2 coordinates, found ", c.size(), " field(s)",
-           c[0] == "segments" ? " (fewer vertices than the declared count)" : "");
+    if (c[0] == "segments")
+      fail(file, ":", lineno, ": found 'segments' after ", i, " of ", nv, " vertices (wrong vertex count)");
+    if (c.size() != 2) fail(file, ":", lineno, ": vertex ", i, ": expected 2 coordinates, found ", c.size(), " field(s)");
     for (int k = 0; k < 2; ++k) m.vertices(k, i) = detail::to_double(c[k], file, lineno, "vertex coordinate");
   }
   const index_t ns = count("segments");
