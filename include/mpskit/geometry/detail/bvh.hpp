@@ -110,11 +110,16 @@ class bvh {
   void nearest(const vec<D>& p, Visit&& visit, Bound&& bound2) const {
     if (nodes_.empty()) return;
     std::int32_t stack[128];
+    double stack_d2[128];  // box distance at push time: re-checked at pop against the shrunken bound
     int top = 0;
-    if (nodes_[0].box.distance2(p) > bound2()) return;
-    stack[top++] = 0;
+    const double d0 = nodes_[0].box.distance2(p);
+    if (d0 > bound2()) return;
+    stack[top] = 0;
+    stack_d2[top++] = d0;
     while (top > 0) {
-      const bvh_node<D>& nd = nodes_[stack[--top]];
+      --top;
+      if (stack_d2[top] > bound2()) continue;
+      const bvh_node<D>& nd = nodes_[stack[top]];
       if (nd.leaf()) {
         for (std::int32_t i = nd.first; i < nd.first + nd.count; ++i) visit(order_[i]);
         continue;
@@ -124,10 +129,14 @@ class bvh {
       const bool left_first = dl <= dr;
       const std::int32_t near = left_first ? nd.left : nd.right, far = left_first ? nd.right : nd.left;
       const double dnear = left_first ? dl : dr, dfar = left_first ? dr : dl;
-      // Re-check the far child against the bound when popped is unnecessary: bounds only shrink,
-      // so the check here is conservative and the leaf test is exact.
-      if (dfar <= b) stack[top++] = far;
-      if (dnear <= b) stack[top++] = near;
+      if (dfar <= b) {
+        stack[top] = far;
+        stack_d2[top++] = dfar;
+      }
+      if (dnear <= b) {
+        stack[top] = near;
+        stack_d2[top++] = dnear;
+      }
     }
   }
 
