@@ -19,6 +19,7 @@
 #include "mpskit/geometry/polygon_set.hpp"
 #include "mpskit/geometry/polyline_io.hpp"
 #include "mpskit/geometry/stl.hpp"
+#include "mpskit/geometry/wall_collection.hpp"
 
 #ifndef MPSKIT_TEST_DATA_DIR
 #define MPSKIT_TEST_DATA_DIR "tests/data"
@@ -142,6 +143,8 @@ struct wall {
 
 static_assert(geo::WallGeometry<geo::polygon_set<2>>);
 static_assert(geo::WallGeometry<geo::polygon_set<3>>);
+static_assert(geo::WallGeometry<geo::wall_collection<2>>);
+static_assert(geo::WallGeometry<geo::wall_collection<3>>);
 static_assert(geo::WallGeometry<geometry_archetypes::wall>);
 static_assert(!geo::WallGeometry<int>);
 
@@ -568,5 +571,28 @@ TEST_SUITE("geometry") {
     }
     CHECK(contains(error_of([] { geo::gear(vec<2>(0, 0), 1.0, 1.2, 10); }), "tip_diameter = 1, accepted range (root_diameter = 1.2"));
     CHECK(contains(error_of([] { geo::circle(vec<2>(0, 0), 1.0, 2, geo::fluid_side::inside); }), "segments = 2, accepted range [3, inf)"));
+  }
+  TEST_CASE("geometry: a wall collection answers for a fixed tank and a rotating gear") {
+    geo::wall_collection<2> walls;
+    walls.add(geo::polygon_set<2>(geo::tank(vec<2>(-2, -2), vec<2>(2, 1))));
+    walls.add(geo::polygon_set<2>(geo::gear(vec<2>(0, 0), 1.0, 0.8, 8), {},
+                                  geo::prescribed_motion<2>::rotation(vec<2>(0, 0), 1.5)));
+    walls.move_to(0.2);
+    std::mt19937_64 rng(test_seed() + 5);
+    MESSAGE("seed = " << test_seed() + 5);
+    for (int i = 0; i < 500; ++i) {
+      const vec<2> x = uniform_point<2>(rng, vec<2>(-1.9, -1.9), vec<2>(1.9, 0.9));
+      const geo::collection_point<2> c = walls.query(x);
+      const geo::closest_point<2> t = walls[0].closest(x), g = walls[1].closest(x);
+      CHECK(c.distance == std::min(t.distance, g.distance));  // same kernels: exact
+      CHECK(c.set == (g.distance < t.distance ? 1 : 0));
+      if (c.set == 0) CHECK(c.velocity.norm() == 0.0);  // the tank does not move
+      if (c.set == 1) CHECK((c.velocity - 1.5 * vec<2>(-c.point.y(), c.point.x())).norm() <= 1e-12);
+    }
+    // a move from the fluid into the gear crosses set 1; into the bottom crosses set 0
+    CHECK(walls.first_crossing(vec<2>(0, 0.95), vec<2>(0, 0))->set == 1);
+    CHECK(walls.first_crossing(vec<2>(1.5, -1.9), vec<2>(1.5, -2.1))->set == 0);
+    CHECK(!walls.crosses(vec<2>(1.5, -1.5), vec<2>(1.6, -1.6)));
+    CHECK(!walls.query(vec<2>(1.5, -1.5), 0.1).found());  // nothing within 0.1
   }
 }
