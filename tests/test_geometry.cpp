@@ -238,6 +238,48 @@ TEST_SUITE("geometry") {
     }
   }
 
+  TEST_CASE("geometry: signed distance is right at acute spikes and notches (pseudo-normals needed)") {
+    // A random star polygon (radii in [0.15, 1]) has acute convex spikes and sharp concave notches:
+    // near them the closest point is a vertex or an edge whose single face normal gives the wrong
+    // sign (Bærentzen & Aanæs 2005, Fig. 1), while the angle-weighted pseudo-normal is right.
+    const std::uint64_t seed = test_seed() + 6;
+    MESSAGE("seed = " << seed);
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> rad(0.15, 1.0);
+    std::vector<vec<2>> star;
+    const int n = 30;
+    for (int i = 0; i < n; ++i) {
+      const double th = 2 * std::numbers::pi * i / n;
+      star.push_back(rad(rng) * vec<2>(std::cos(th), std::sin(th)));
+    }
+    const geo::polygon_mesh<2> m2 = geo::detail::closed_polygon(star, geo::fluid_side::outside);
+    const geo::polygon_set<2> s2(m2);
+    int vertex_hits = 0;
+    for (int i = 0; i < 20000; ++i) {
+      const vec<2> x = uniform_point<2>(rng, vec<2>(-1.1, -1.1), vec<2>(1.1, 1.1));
+      const geo::closest_point<2> c = s2.closest(x);
+      if (c.distance < 1e-9) continue;
+      vertex_hits += c.kind == geo::feature_kind::vertex;
+      CAPTURE(x.transpose());
+      CHECK((s2.signed_distance(x) > 0.0) == !inside_2d(m2, x));
+    }
+    CHECK(vertex_hits > 1000);  // the test exercises vertex features, not only faces
+    const geo::polygon_mesh<3> m3 = geo::detail::extrude(star, vec<2>(0, 0), 0.0, 0.3, 1, true, geo::fluid_side::outside);
+    const geo::polygon_set<3> s3(m3);
+    int edge_or_vertex = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const vec<3> x = uniform_point<3>(rng, vec<3>(-1.1, -1.1, -0.2), vec<3>(1.1, 1.1, 0.5));
+      const geo::closest_point<3> c = s3.closest(x);
+      if (c.distance < 1e-9) continue;
+      edge_or_vertex += c.kind != geo::feature_kind::face;
+      const double w = winding_3d(m3, x);
+      CAPTURE(x.transpose());
+      REQUIRE(std::min(std::abs(w), std::abs(w - 1.0)) < 1e-6);
+      CHECK((s3.signed_distance(x) > 0.0) == (w < 0.5));
+    }
+    CHECK(edge_or_vertex > 300);
+  }
+
   TEST_CASE("geometry: curvature of a circle and a sphere within 1 percent (Tanaka eq. 77)") {
     const std::uint64_t seed = test_seed() + 3;
     MESSAGE("seed = " << seed);
@@ -446,6 +488,10 @@ TEST_SUITE("geometry") {
     geo::polygon_mesh<2> n = geo::rectangle(vec<2>(0, 0), vec<2>(1, 1), geo::fluid_side::inside);
     n.vertices(1, 3) = std::nan("");
     CHECK(contains(error_of([&] { geo::polygon_set<2> s(n); }), "vertex 3 has a non-finite coordinate"));
+    // a NaN query position is not silently mapped to a wall: NaN distance, nothing found
+    const geo::polygon_set<2> ok(geo::rectangle(vec<2>(0, 0), vec<2>(1, 1), geo::fluid_side::inside));
+    CHECK(std::isnan(ok.signed_distance(vec<2>(std::nan(""), 0.5))));
+    CHECK(!ok.query(vec<2>(0.5, std::nan(""))).found());
   }
 
   TEST_CASE("geometry: readers accept the valid sample files") {

@@ -176,8 +176,10 @@ class polygon_set final {
 
   /// Signed distance (m): positive on the fluid side. Inside/outside is exact for closed, consistently
   /// oriented sets; near open edges it follows the pseudo-normal of the closest feature.
+  /// A non-finite x gives NaN (nothing is found), so a broken particle position stays visible.
   double signed_distance(const vec<D>& x) const {
     const closest_point<D> c = closest(x);
+    if (!c.found()) return std::numeric_limits<double>::quiet_NaN();
     return (x - c.point).dot(pseudo_normal(c)) < 0.0 ? -c.distance : c.distance;
   }
 
