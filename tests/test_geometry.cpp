@@ -317,6 +317,13 @@ TEST_SUITE("geometry") {
     // exact zero by construction (flat corner normals, or feature-adjacent elements): no tolerance
     for (const vec<3>& x : {vec<3>(0.5, 0.5, 0.1), vec<3>(0.3, 0.6, 0.9), vec<3>(0.05, 0.05, 0.05), vec<3>(0.02, 0.5, 0.03)})
       CHECK(box.query(x).curvature == 0.0);
+    // a tilted box: face normals of coplanar triangles differ by rounding, σ must still be exactly 0
+    geo::polygon_mesh<3> tilted = geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::inside, 5);
+    const Eigen::Matrix3d rot = geo::rotation_matrix(vec<3>(0.3, -0.7, 0.45));
+    tilted.vertices = (rot * tilted.vertices).eval();
+    const geo::polygon_set<3> tb(tilted);
+    for (const vec<3>& x : {vec<3>(0.5, 0.5, 0.1), vec<3>(0.33, 0.61, 0.93), vec<3>(0.71, 0.12, 0.44)})
+      CHECK(tb.query((rot * x).eval()).curvature == 0.0);
     const geo::polygon_set<2> sq(geo::rectangle(vec<2>(0, 0), vec<2>(1, 1), geo::fluid_side::inside, 5));
     for (const vec<2>& x : {vec<2>(0.5, 0.1), vec<2>(0.02, 0.03)}) CHECK(sq.query(x).curvature == 0.0);
     // cylinder: side elements touching the caps' 90° rim are feature-adjacent (σ = 0); in the middle
