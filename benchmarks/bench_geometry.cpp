@@ -22,8 +22,9 @@ namespace {
 // Cylinder of radius 1, height 2: 500 segments × 100 layers × 2 = 100 000 side triangles + 1000 cap
 // triangles. Queries: random points in the shell 0.9 < r < 1.1 (particles near the wall).
 const geo::polygon_set<3>& mesh3() {
-  static const geo::polygon_set<3> s(geo::cylinder(vec<3>(0, 0, 0), 1.0, 2.0, 500, 100, true, geo::fluid_side::inside),
-                                     {}, geo::prescribed_motion<3>::rotation(vec<3>(0, 0, 0), vec<3>(0, 0, 1.0)));
+  static const geo::polygon_set<3> s(
+      geo::cylinder(vec<3>(0, 0, 0), 1.0, 2.0, 500, 100, true, geo::fluid_side::inside), {},
+      geo::prescribed_motion<3>::rotation(vec<3>(0, 0, 0), vec<3>(0, 0, 1.0)));
   return s;
 }
 // Gear outline with 2500 teeth: 4 vertices per tooth = 10 000 segments.
@@ -103,7 +104,8 @@ void bm_refit_2d_1e4_segments(benchmark::State& state) {
   }
 }
 void bm_build_3d_1e5_triangles(benchmark::State& state) {
-  const geo::polygon_mesh<3> m = geo::cylinder(vec<3>(0, 0, 0), 1.0, 2.0, 500, 100, true, geo::fluid_side::inside);
+  const geo::polygon_mesh<3> m =
+      geo::cylinder(vec<3>(0, 0, 0), 1.0, 2.0, 500, 100, true, geo::fluid_side::inside);
   for (auto _ : state) benchmark::DoNotOptimize(geo::polygon_set<3>(m));
 }
 

@@ -101,8 +101,8 @@ double winding_3d(const geo::polygon_mesh<3>& m, const vec<3>& p) {
 
 /// Compares the hierarchy's closest point with brute force on random queries in a box.
 template <int D>
-void check_closest_against_brute_force(const geo::polygon_set<D>& s, const vec<D>& lo, const vec<D>& hi, int n,
-                                       std::mt19937_64& rng) {
+void check_closest_against_brute_force(const geo::polygon_set<D>& s, const vec<D>& lo, const vec<D>& hi,
+                                       int n, std::mt19937_64& rng) {
   const double tol = 1e-12 * s.scale();  // both evaluate the same per-element kernel: rounding only
   for (int i = 0; i < n; ++i) {
     const vec<D> x = uniform_point<D>(rng, lo, hi);
@@ -154,7 +154,8 @@ TEST_SUITE("geometry") {
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
     std::mt19937_64 rng(seed);
     // gear: concave root corners and convex tip corners; tank: open polyline
-    const geo::polygon_set<2> gear(geo::gear(vec<2>(0.1, -0.2), 2.0, 1.5, 17, geo::fluid_side::outside, 0.3, 3));
+    const geo::polygon_set<2> gear(
+        geo::gear(vec<2>(0.1, -0.2), 2.0, 1.5, 17, geo::fluid_side::outside, 0.3, 3));
     check_closest_against_brute_force<2>(gear, vec<2>(-1.5, -1.7), vec<2>(1.7, 1.3), 4000, rng);
     const geo::polygon_set<2> tank(geo::tank(vec<2>(0, 0), vec<2>(1.0, 0.6), 7));
     check_closest_against_brute_force<2>(tank, vec<2>(-0.3, -0.3), vec<2>(1.3, 0.9), 2000, rng);
@@ -177,7 +178,8 @@ TEST_SUITE("geometry") {
     // near; the distance is min(x, 1 - x, ...) analytically and the point must be inside (d > 0).
     const geo::polygon_set<3> box(geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::inside, 2));
     for (double t : {0.05, 0.2, 0.37, 0.5}) {
-      for (const vec<3>& x : {vec<3>(t, t, 0.5), vec<3>(t, t, t), vec<3>(0.5, 0.5, 0.5), vec<3>(1 - t, t, 0.3)}) {
+      for (const vec<3>& x :
+           {vec<3>(t, t, 0.5), vec<3>(t, t, t), vec<3>(0.5, 0.5, 0.5), vec<3>(1 - t, t, 0.3)}) {
         CAPTURE(x.transpose());
         const double exact = std::min({x.x(), x.y(), x.z(), 1 - x.x(), 1 - x.y(), 1 - x.z()});
         // analytic reference; rounding of a few flops on O(1) numbers
@@ -217,7 +219,8 @@ TEST_SUITE("geometry") {
       CHECK(checked > 4900);
     }
     {  // 3D gear (concave root edges) and box with fluid inside
-      const geo::polygon_mesh<3> g = geo::gear(vec<3>(0, 0, 0), 2.0, 1.5, 8, 0.5, geo::fluid_side::outside, 0.2);
+      const geo::polygon_mesh<3> g =
+          geo::gear(vec<3>(0, 0, 0), 2.0, 1.5, 8, 0.5, geo::fluid_side::outside, 0.2);
       const geo::polygon_set<3> s(g);
       for (int i = 0; i < 600; ++i) {
         const vec<3> x = uniform_point<3>(rng, vec<3>(-1.1, -1.1, -0.2), vec<3>(1.1, 1.1, 0.7));
@@ -227,7 +230,8 @@ TEST_SUITE("geometry") {
         REQUIRE(std::min(std::abs(w), std::abs(w - 1.0)) < 1e-6);  // a closed mesh gives an integer
         CHECK((s.signed_distance(x) > 0.0) == (w < 0.5));
       }
-      const geo::polygon_mesh<3> b = geo::box(vec<3>(-1, -1, -1), vec<3>(1, 1, 1), geo::fluid_side::inside, 2);
+      const geo::polygon_mesh<3> b =
+          geo::box(vec<3>(-1, -1, -1), vec<3>(1, 1, 1), geo::fluid_side::inside, 2);
       const geo::polygon_set<3> sb(b);
       for (int i = 0; i < 600; ++i) {
         const vec<3> x = uniform_point<3>(rng, vec<3>(-1.5, -1.5, -1.5), vec<3>(1.5, 1.5, 1.5));
@@ -264,7 +268,8 @@ TEST_SUITE("geometry") {
       CHECK((s2.signed_distance(x) > 0.0) == !inside_2d(m2, x));
     }
     CHECK(vertex_hits > 1000);  // the test exercises vertex features, not only faces
-    const geo::polygon_mesh<3> m3 = geo::detail::extrude(star, vec<2>(0, 0), 0.0, 0.3, 1, true, geo::fluid_side::outside);
+    const geo::polygon_mesh<3> m3 =
+        geo::detail::extrude(star, vec<2>(0, 0), 0.0, 0.3, 1, true, geo::fluid_side::outside);
     const geo::polygon_set<3> s3(m3);
     int edge_or_vertex = 0;
     for (int i = 0; i < 3000; ++i) {
@@ -315,7 +320,8 @@ TEST_SUITE("geometry") {
   TEST_CASE("geometry: curvature is zero on flat faces, at box corners and next to feature edges") {
     const geo::polygon_set<3> box(geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::inside, 4));
     // exact zero by construction (flat corner normals, or feature-adjacent elements): no tolerance
-    for (const vec<3>& x : {vec<3>(0.5, 0.5, 0.1), vec<3>(0.3, 0.6, 0.9), vec<3>(0.05, 0.05, 0.05), vec<3>(0.02, 0.5, 0.03)})
+    for (const vec<3>& x :
+         {vec<3>(0.5, 0.5, 0.1), vec<3>(0.3, 0.6, 0.9), vec<3>(0.05, 0.05, 0.05), vec<3>(0.02, 0.5, 0.03)})
       CHECK(box.query(x).curvature == 0.0);
     // a tilted box: face normals of coplanar triangles differ by rounding, σ must still be exactly 0
     geo::polygon_mesh<3> tilted = geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::inside, 5);
@@ -329,7 +335,8 @@ TEST_SUITE("geometry") {
     // cylinder: side elements touching the caps' 90° rim are feature-adjacent (σ = 0); in the middle
     // band the side is curved in one direction only, so eq. (77) gives a weight-dependent value in
     // (0, 1/R]: check its sign and bound
-    const geo::polygon_set<3> cyl(geo::cylinder(vec<3>(0, 0, 0), 0.5, 1.0, 48, 8, true, geo::fluid_side::inside));
+    const geo::polygon_set<3> cyl(
+        geo::cylinder(vec<3>(0, 0, 0), 0.5, 1.0, 48, 8, true, geo::fluid_side::inside));
     CHECK(cyl.query(vec<3>(0.45, 0.0, 0.05)).curvature == 0.0);
     const double mid = cyl.query(vec<3>(0.45, 0.01, 0.5)).curvature;
     CHECK(mid > 0.0);
@@ -357,10 +364,10 @@ TEST_SUITE("geometry") {
       m.elements.resize(2, 1);
       m.elements << 0, 1;
       const geo::polygon_set<2> w(m);
-      CHECK(w.crosses(vec<2>(-0.01, 0.5), vec<2>(0.01, 0.5)));   // across, 2 cm apart
-      CHECK(!w.crosses(vec<2>(-0.01, 0.5), vec<2>(-0.02, 0.7))); // same side
-      CHECK(!w.crosses(vec<2>(-0.01, 1.2), vec<2>(0.01, 1.2)));  // beyond the wall's end
-      CHECK(w.crosses(vec<2>(-0.01, 0.99), vec<2>(0.01, 1.01))); // through the end point (closed test)
+      CHECK(w.crosses(vec<2>(-0.01, 0.5), vec<2>(0.01, 0.5)));    // across, 2 cm apart
+      CHECK(!w.crosses(vec<2>(-0.01, 0.5), vec<2>(-0.02, 0.7)));  // same side
+      CHECK(!w.crosses(vec<2>(-0.01, 1.2), vec<2>(0.01, 1.2)));   // beyond the wall's end
+      CHECK(w.crosses(vec<2>(-0.01, 0.99), vec<2>(0.01, 1.01)));  // through the end point (closed test)
       const std::optional<geo::crossing<2>> c = w.first_crossing(vec<2>(0.3, 0.2), vec<2>(-0.1, 0.6));
       REQUIRE(c.has_value());
       CHECK(c->t == doctest::Approx(0.75).epsilon(1e-14));  // analytic: x = 0.3 - 0.4 t = 0
@@ -389,7 +396,8 @@ TEST_SUITE("geometry") {
         missed += !w.crosses(vec<3>(s, s, -0.5), vec<3>(s, s, 0.5));
       }
       CHECK(missed == 0);
-      const std::optional<geo::crossing<3>> c = w.first_crossing(vec<3>(0.2, 0.3, 0.5), vec<3>(0.2, 0.3, -1.5));
+      const std::optional<geo::crossing<3>> c =
+          w.first_crossing(vec<3>(0.2, 0.3, 0.5), vec<3>(0.2, 0.3, -1.5));
       REQUIRE(c.has_value());
       CHECK(c->t == doctest::Approx(0.25).epsilon(1e-14));
       CHECK(c->normal.isApprox(vec<3>(0, 0, 1)));
@@ -422,10 +430,12 @@ TEST_SUITE("geometry") {
       CHECK((a.velocity - omega * vec<2>(-r.y(), r.x())).norm() <= 1e-12);
     }
     // 3D: gear about the z axis through (0.3, -0.1, 0), translating along z as well
-    geo::polygon_set<3> g3(geo::gear(vec<3>(0.3, -0.1, 0), 1.0, 0.8, 10, 0.2), {},
-                           geo::prescribed_motion<3>::rigid(vec<3>(0.3, -0.1, 0), vec<3>(0, 0, 0.5), vec<3>(0, 0, omega)));
+    geo::polygon_set<3> g3(
+        geo::gear(vec<3>(0.3, -0.1, 0), 1.0, 0.8, 10, 0.2), {},
+        geo::prescribed_motion<3>::rigid(vec<3>(0.3, -0.1, 0), vec<3>(0, 0, 0.5), vec<3>(0, 0, omega)));
     g3.move_to(t);
-    const geo::polygon_set<3> a3(geo::gear(vec<3>(0.3, -0.1, 0.5 * t), 1.0, 0.8, 10, 0.2, geo::fluid_side::outside, omega * t));
+    const geo::polygon_set<3> a3(
+        geo::gear(vec<3>(0.3, -0.1, 0.5 * t), 1.0, 0.8, 10, 0.2, geo::fluid_side::outside, omega * t));
     for (int i = 0; i < 300; ++i) {
       const vec<3> x = uniform_point<3>(rng, vec<3>(-0.4, -0.8, -0.2), vec<3>(1.0, 0.6, 0.6));
       const geo::wall_point<3> a = g3.query(x);
@@ -434,8 +444,9 @@ TEST_SUITE("geometry") {
       CHECK((a.velocity - (vec<3>(0, 0, 0.5) + geo::detail::cross3(vec<3>(0, 0, omega), r))).norm() <= 1e-12);
     }
     // a user callable velocity (conveyor belt: fixed geometry, tangential wall velocity)
-    geo::polygon_set<2> belt(geo::tank(vec<2>(0, 0), vec<2>(1, 1)), {},
-                             geo::prescribed_motion<2>::callable({}, [](const vec<2>&, double) { return vec<2>(0.2, 0); }));
+    geo::polygon_set<2> belt(
+        geo::tank(vec<2>(0, 0), vec<2>(1, 1)), {},
+        geo::prescribed_motion<2>::callable({}, [](const vec<2>&, double) { return vec<2>(0.2, 0); }));
     belt.move_to(1.0);
     CHECK(belt.query(vec<2>(0.5, 0.1)).velocity.isApprox(vec<2>(0.2, 0)));
     CHECK(belt.vertices().isApprox(geo::tank(vec<2>(0, 0), vec<2>(1, 1)).vertices));
@@ -511,7 +522,8 @@ TEST_SUITE("geometry") {
     CHECK(c.mesh.vertices.cols() == 8);
     CHECK(c.quality.merged_vertices == 36 - 8);  // every corner stored once per triangle in STL
     CHECK(c.quality.clean());
-    CHECK(geo::polygon_set<3>(c.mesh).signed_distance(vec<3>(0.5, 0.5, 0.2)) == doctest::Approx(-0.2));  // outward winding
+    CHECK(geo::polygon_set<3>(c.mesh).signed_distance(vec<3>(0.5, 0.5, 0.2)) ==
+          doctest::Approx(-0.2));  // outward winding
     const geo::read_result<3> o = geo::read_obj(data("pyramid.obj"));
     CHECK(o.mesh.size() == 6);  // quad base fan-triangulated into 2 + 4 sides
     CHECK(o.quality.closed());
@@ -524,25 +536,47 @@ TEST_SUITE("geometry") {
       std::string text;
       const char* expected;
     };
-    const std::string tri = "  facet normal 0 0 1\n    outer loop\n      vertex 0 0 0\n      vertex 1 0 0\n      vertex 0 1 0\n    endloop\n  endfacet\n";
+    const std::string tri =
+        "  facet normal 0 0 1\n    outer loop\n      vertex 0 0 0\n      vertex 1 0 0\n      vertex 0 1 0\n  "
+        "  endloop\n  endfacet\n";
     const std::vector<bad_case> cases = {
-        {"short.poly", "mpskit_polyline 1\nvertices 3\n0 0\n1 0\n", "short.poly:5: file ends after 2 of 3 vertices"},
-        {"count.poly", "mpskit_polyline 1\nvertices 2\n0 0\n1 0\nsegments 2\n0 1\n", "file ends after 1 of 2 segments"},
-        {"extra.poly", "mpskit_polyline 1\nvertices 2\n0 0\n1 0\nsegments 1\n0 1\n1 0\n", "extra.poly:7: unexpected content"},
-        {"fewer.poly", "mpskit_polyline 1\nvertices 3\n0 0\n1 0\nsegments 1\n0 1\n", "fewer.poly:5: found 'segments' after 2 of 3 vertices"},
-        {"nan.poly", "mpskit_polyline 1\nvertices 2\n0 nan\n1 0\nsegments 1\n0 1\n", "nan.poly:3: vertex coordinate: 'nan' is not a finite number"},
-        {"index.poly", "mpskit_polyline 1\nvertices 2\n0 0\n1 0\nsegments 1\n0 2\n", "index.poly:6: segment 0 refers to vertex 2, accepted range [0, 1]"},
-        {"degenerate.poly", "mpskit_polyline 1\nvertices 2\n0 0\n0 0\nsegments 1\n0 1\n", "degenerate.poly: line 6: element 0 is degenerate"},
+        {"short.poly", "mpskit_polyline 1\nvertices 3\n0 0\n1 0\n",
+         "short.poly:5: file ends after 2 of 3 vertices"},
+        {"count.poly", "mpskit_polyline 1\nvertices 2\n0 0\n1 0\nsegments 2\n0 1\n",
+         "file ends after 1 of 2 segments"},
+        {"extra.poly", "mpskit_polyline 1\nvertices 2\n0 0\n1 0\nsegments 1\n0 1\n1 0\n",
+         "extra.poly:7: unexpected content"},
+        {"fewer.poly", "mpskit_polyline 1\nvertices 3\n0 0\n1 0\nsegments 1\n0 1\n",
+         "fewer.poly:5: found 'segments' after 2 of 3 vertices"},
+        {"nan.poly", "mpskit_polyline 1\nvertices 2\n0 nan\n1 0\nsegments 1\n0 1\n",
+         "nan.poly:3: vertex coordinate: 'nan' is not a finite number"},
+        {"index.poly", "mpskit_polyline 1\nvertices 2\n0 0\n1 0\nsegments 1\n0 2\n",
+         "index.poly:6: segment 0 refers to vertex 2, accepted range [0, 1]"},
+        {"degenerate.poly", "mpskit_polyline 1\nvertices 2\n0 0\n0 0\nsegments 1\n0 1\n",
+         "degenerate.poly: line 6: element 0 is degenerate"},
         {"header.poly", "polyline\n", "header.poly:1: expected header 'mpskit_polyline 1'"},
-        {"trunc.stl", "solid t\n" + tri + "  facet normal 0 0 1\n    outer loop\n      vertex 0 0 0\n", "trunc.stl:11: file ends where 'vertex' was expected (truncated)"},
+        {"trunc.stl", "solid t\n" + tri + "  facet normal 0 0 1\n    outer loop\n      vertex 0 0 0\n",
+         "trunc.stl:11: file ends where 'vertex' was expected (truncated)"},
         {"noend.stl", "solid t\n" + tri, "file ends before 'endsolid'"},
-        {"nan.stl", "solid t\n  facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 NaN 0\n vertex 0 1 0\n endloop\n endfacet\nendsolid t\n", "nan.stl:5: vertex coordinate: 'NaN' is not a finite number"},
-        {"quad.stl", "solid t\n facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n vertex 1 1 0\n vertex 0 1 0\n endloop\n endfacet\nendsolid\n", "quad.stl:7: facet has more than 3 vertices"},
-        {"degenerate.stl", "solid t\n" + tri + " facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n vertex 2 0 0\n endloop\n endfacet\nendsolid\n", "degenerate.stl: line 9: element 1 is degenerate"},
-        {"range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "range.obj:4: face refers to vertex 4, but 3 vertices are defined so far"},
+        {"nan.stl",
+         "solid t\n  facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 NaN 0\n vertex 0 1 0\n "
+         "endloop\n endfacet\nendsolid t\n",
+         "nan.stl:5: vertex coordinate: 'NaN' is not a finite number"},
+        {"quad.stl",
+         "solid t\n facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n vertex 1 1 0\n vertex 0 "
+         "1 0\n endloop\n endfacet\nendsolid\n",
+         "quad.stl:7: facet has more than 3 vertices"},
+        {"degenerate.stl",
+         "solid t\n" + tri +
+             " facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n vertex 2 0 0\n endloop\n "
+             "endfacet\nendsolid\n",
+         "degenerate.stl: line 9: element 1 is degenerate"},
+        {"range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+         "range.obj:4: face refers to vertex 4, but 3 vertices are defined so far"},
         {"nan.obj", "v 0 0 0\nv 1 inf 0\n", "nan.obj:2: vertex coordinate: 'inf' is not a finite number"},
         {"short.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "short.obj:4: face needs at least 3 vertices"},
-        {"degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 3\n", "degenerate.obj: line 5: element 1 is degenerate"},
+        {"degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 3\n",
+         "degenerate.obj: line 5: element 1 is degenerate"},
         {"empty.obj", "# nothing\n", "empty.obj: no elements"},
         {"garbage.stl", "not an stl", "too short for binary STL"},
     };
@@ -560,29 +594,37 @@ TEST_SUITE("geometry") {
       CHECK(contains(msg, "mpskit: "));
     }
     // binary STL: truncated (one byte missing) and wrong count
-    const std::string bin = geo::format_stl(geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::outside));
-    CHECK(contains(error_of([&] { geo::read_stl(write_temp("trunc_bin.stl", bin.substr(0, bin.size() - 1))); }),
-                   "binary STL declares 12 triangles (684 bytes) but the file has 683 bytes"));
+    const std::string bin =
+        geo::format_stl(geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::outside));
+    CHECK(
+        contains(error_of([&] { geo::read_stl(write_temp("trunc_bin.stl", bin.substr(0, bin.size() - 1))); }),
+                 "binary STL declares 12 triangles (684 bytes) but the file has 683 bytes"));
     std::string wrong = bin;
     wrong[80] = 13;
-    CHECK(contains(error_of([&] { geo::read_stl(write_temp("count_bin.stl", wrong)); }), "declares 13 triangles"));
+    CHECK(contains(error_of([&] { geo::read_stl(write_temp("count_bin.stl", wrong)); }),
+                   "declares 13 triangles"));
     std::string nanbin = bin;
     const float nanf = std::nanf("");
     std::memcpy(nanbin.data() + 84 + 50 * 5 + 16, &nanf, 4);
-    CHECK(contains(error_of([&] { geo::read_stl(write_temp("nan_bin.stl", nanbin)); }), "triangle 5 (byte offset 334): non-finite"));
-    CHECK(contains(error_of([] { geo::read_stl("/nonexistent/mpskit.stl"); }), "/nonexistent/mpskit.stl: cannot open"));
+    CHECK(contains(error_of([&] { geo::read_stl(write_temp("nan_bin.stl", nanbin)); }),
+                   "triangle 5 (byte offset 334): non-finite"));
+    CHECK(contains(error_of([] { geo::read_stl("/nonexistent/mpskit.stl"); }),
+                   "/nonexistent/mpskit.stl: cannot open"));
     // drop_degenerate removes and counts instead of refusing
     geo::read_options drop;
     drop.drop_degenerate = true;
-    const geo::read_result<3> r = geo::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 3\n", "x.obj", drop);
+    const geo::read_result<3> r =
+        geo::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 3\n", "x.obj", drop);
     CHECK(r.mesh.size() == 1);
     CHECK(r.quality.dropped_degenerate == 1);
   }
 
   TEST_CASE("geometry: writers round-trip through the readers") {
-    const geo::polygon_mesh<2> g2 = geo::gear(vec<2>(0.1, 0.2), 1.0, 0.7, 13, geo::fluid_side::outside, 0.05, 2);
-    const geo::read_result<2> p = geo::read_polyline((write_temp("rt.poly", ""), geo::write_polyline((temp_dir() / "rt.poly").string(), g2),
-                                                      (temp_dir() / "rt.poly").string()));
+    const geo::polygon_mesh<2> g2 =
+        geo::gear(vec<2>(0.1, 0.2), 1.0, 0.7, 13, geo::fluid_side::outside, 0.05, 2);
+    const geo::read_result<2> p = geo::read_polyline(
+        (write_temp("rt.poly", ""), geo::write_polyline((temp_dir() / "rt.poly").string(), g2),
+         (temp_dir() / "rt.poly").string()));
     CHECK(p.mesh.vertices == g2.vertices);  // 17 digits: exact
     CHECK(p.mesh.elements == g2.elements);
     const geo::polygon_mesh<3> g3 = geo::gear(vec<3>(0.1, 0.2, 0.3), 1.0, 0.7, 13, 0.25);
@@ -597,14 +639,16 @@ TEST_SUITE("geometry") {
     CHECK(a.mesh.size() == g3.size());
     CHECK(a.mesh.vertices.cols() == g3.vertices.cols());  // welding recovers the shared vertices
     double err = 0.0;
-    for (index_t e = 0; e < g3.size(); ++e) err = std::max(err, (a.mesh.element(e) - g3.element(e)).cwiseAbs().maxCoeff());
+    for (index_t e = 0; e < g3.size(); ++e)
+      err = std::max(err, (a.mesh.element(e) - g3.element(e)).cwiseAbs().maxCoeff());
     CHECK(err == 0.0);  // ASCII with 17 digits is exact
     const std::string binary = (temp_dir() / "rt_binary.stl").string();
     geo::write_stl(binary, g3, geo::stl_format::binary);
     const geo::read_result<3> b = geo::read_stl(binary);
     CHECK(b.mesh.size() == g3.size());
     err = 0.0;
-    for (index_t e = 0; e < g3.size(); ++e) err = std::max(err, (b.mesh.element(e) - g3.element(e)).cwiseAbs().maxCoeff());
+    for (index_t e = 0; e < g3.size(); ++e)
+      err = std::max(err, (b.mesh.element(e) - g3.element(e)).cwiseAbs().maxCoeff());
     CHECK(err <= 1e-7);  // float32 storage: relative 6e-8 on coordinates of order 1
     CHECK(b.quality.closed());
   }
@@ -622,8 +666,10 @@ TEST_SUITE("geometry") {
       const double r = (g.vertices.col(i) - vec<2>(1, 1)).norm();
       CHECK((std::abs(r - 1.0) <= 1e-14 || std::abs(r - 0.8) <= 1e-14));
     }
-    CHECK(contains(error_of([] { geo::gear(vec<2>(0, 0), 1.0, 1.2, 10); }), "tip_diameter = 1, accepted range (root_diameter = 1.2"));
-    CHECK(contains(error_of([] { geo::circle(vec<2>(0, 0), 1.0, 2, geo::fluid_side::inside); }), "segments = 2, accepted range [3, inf)"));
+    CHECK(contains(error_of([] { geo::gear(vec<2>(0, 0), 1.0, 1.2, 10); }),
+                   "tip_diameter = 1, accepted range (root_diameter = 1.2"));
+    CHECK(contains(error_of([] { geo::circle(vec<2>(0, 0), 1.0, 2, geo::fluid_side::inside); }),
+                   "segments = 2, accepted range [3, inf)"));
   }
   TEST_CASE("geometry: a wall collection answers for a fixed tank and a rotating gear") {
     geo::wall_collection<2> walls;

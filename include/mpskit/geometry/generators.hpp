@@ -25,7 +25,8 @@ enum class fluid_side {
 namespace detail {
 /// Builds a mesh from vertex and element lists.
 template <int D>
-inline polygon_mesh<D> make_mesh(const std::vector<vec<D>>& v, const std::vector<std::array<index_t, D>>& el) {
+inline polygon_mesh<D> make_mesh(const std::vector<vec<D>>& v,
+                                 const std::vector<std::array<index_t, D>>& el) {
   polygon_mesh<D> m;
   m.vertices.resize(D, static_cast<index_t>(v.size()));
   for (std::size_t i = 0; i < v.size(); ++i) m.vertices.col(static_cast<index_t>(i)) = v[i];
@@ -49,13 +50,14 @@ inline polygon_mesh<2> closed_polygon(const std::vector<vec<2>>& p, fluid_side s
 }
 /// Prism of a star-shaped (about `centre`) counter-clockwise profile: side quads in `layers` layers
 /// from z0 to z0 + height, optional fan caps. Outward normals; flipped for fluid inside.
-inline polygon_mesh<3> extrude(const std::vector<vec<2>>& profile, const vec<2>& centre, double z0, double height,
-                               int layers, bool caps, fluid_side side) {
+inline polygon_mesh<3> extrude(const std::vector<vec<2>>& profile, const vec<2>& centre, double z0,
+                               double height, int layers, bool caps, fluid_side side) {
   const index_t n = static_cast<index_t>(profile.size());
   std::vector<vec<3>> v;
   std::vector<std::array<index_t, 3>> el;
   for (int k = 0; k <= layers; ++k)
-    for (index_t j = 0; j < n; ++j) v.push_back(vec<3>(profile[j].x(), profile[j].y(), z0 + height * k / layers));
+    for (index_t j = 0; j < n; ++j)
+      v.push_back(vec<3>(profile[j].x(), profile[j].y(), z0 + height * k / layers));
   auto id = [n](index_t j, int k) { return static_cast<index_t>(k) * n + (j % n); };
   for (int k = 0; k < layers; ++k)
     for (index_t j = 0; j < n; ++j) {
@@ -77,7 +79,8 @@ inline polygon_mesh<3> extrude(const std::vector<vec<2>>& profile, const vec<2>&
   return m;
 }
 inline void check_positive(double x, const char* fn, const char* what) {
-  if (!(x > 0.0) || !std::isfinite(x)) fail("geometry::", fn, ": ", what, " = ", x, ", accepted range (0, inf)");
+  if (!(x > 0.0) || !std::isfinite(x))
+    fail("geometry::", fn, ": ", what, " = ", x, ", accepted range (0, inf)");
 }
 inline void check_count(index_t n, index_t min, const char* fn, const char* what) {
   if (n < min) fail("geometry::", fn, ": ", what, " = ", n, ", accepted range [", min, ", inf)");
@@ -124,7 +127,8 @@ inline polygon_mesh<3> box_surface(const vec<3>& lo, const vec<3>& hi, index_t n
     auto [it, inserted] = ids.try_emplace(g, static_cast<index_t>(v.size()));
     if (inserted) {
       vec<3> p;
-      for (int a = 0; a < 3; ++a) p[a] = lo[a] + (hi[a] - lo[a]) * (static_cast<double>(g[a]) / static_cast<double>(n));
+      for (int a = 0; a < 3; ++a)
+        p[a] = lo[a] + (hi[a] - lo[a]) * (static_cast<double>(g[a]) / static_cast<double>(n));
       v.push_back(p);
     }
     return it->second;
@@ -208,8 +212,8 @@ inline polygon_mesh<3> sphere(const vec<3>& centre, double radius, int subdivisi
   if (subdivisions < 0 || subdivisions > 8)
     fail("geometry::sphere: subdivisions = ", subdivisions, ", accepted range [0, 8]");
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<vec<3>> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                           {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<vec<3>> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                           {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   for (vec<3>& x : v) x.normalize();
   std::vector<std::array<index_t, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
                                            {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
@@ -225,7 +229,8 @@ inline polygon_mesh<3> sphere(const vec<3>& centre, double radius, int subdivisi
     };
     std::vector<std::array<index_t, 3>> g;
     for (const auto& tri : f) {
-      const index_t ab = midpoint(tri[0], tri[1]), bc = midpoint(tri[1], tri[2]), ca = midpoint(tri[2], tri[0]);
+      const index_t ab = midpoint(tri[0], tri[1]), bc = midpoint(tri[1], tri[2]),
+                    ca = midpoint(tri[2], tri[0]);
       g.push_back({tri[0], ab, ca});
       g.push_back({tri[1], bc, ab});
       g.push_back({tri[2], ca, bc});
@@ -247,7 +252,8 @@ inline std::vector<vec<2>> gear_profile(const vec<2>& centre, double tip_diamete
                                         index_t teeth, double phase = 0.0, index_t land_segments = 1) {
   detail::check_positive(root_diameter, "gear", "root_diameter");
   if (!(tip_diameter > root_diameter) || !std::isfinite(tip_diameter))
-    fail("geometry::gear: tip_diameter = ", tip_diameter, ", accepted range (root_diameter = ", root_diameter, ", inf)");
+    fail("geometry::gear: tip_diameter = ", tip_diameter, ", accepted range (root_diameter = ", root_diameter,
+         ", inf)");
   detail::check_count(teeth, 3, "gear", "teeth");
   detail::check_count(land_segments, 1, "gear", "land_segments");
   const double p = 2.0 * std::numbers::pi / static_cast<double>(teeth);
@@ -257,24 +263,28 @@ inline std::vector<vec<2>> gear_profile(const vec<2>& centre, double tip_diamete
   for (index_t k = 0; k < teeth; ++k) {
     const double th0 = phase + p * static_cast<double>(k);
     for (index_t s = 0; s <= land_segments; ++s) out.push_back(at(rr, th0 + 0.3 * p * s / land_segments));
-    for (index_t s = 0; s <= land_segments; ++s) out.push_back(at(rt, th0 + 0.45 * p + 0.4 * p * s / land_segments));
+    for (index_t s = 0; s <= land_segments; ++s)
+      out.push_back(at(rt, th0 + 0.45 * p + 0.4 * p * s / land_segments));
   }
   return out;
 }
 
 /// 2D spur gear (see gear_profile); the fluid is usually outside.
 inline polygon_mesh<2> gear(const vec<2>& centre, double tip_diameter, double root_diameter, index_t teeth,
-                            fluid_side side = fluid_side::outside, double phase = 0.0, index_t land_segments = 1) {
-  return detail::closed_polygon(gear_profile(centre, tip_diameter, root_diameter, teeth, phase, land_segments), side);
+                            fluid_side side = fluid_side::outside, double phase = 0.0,
+                            index_t land_segments = 1) {
+  return detail::closed_polygon(
+      gear_profile(centre, tip_diameter, root_diameter, teeth, phase, land_segments), side);
 }
 
 /// 3D spur gear: the 2D profile extruded along +z from `base_centre` by `thickness`, with fan caps.
-inline polygon_mesh<3> gear(const vec<3>& base_centre, double tip_diameter, double root_diameter, index_t teeth,
-                            double thickness, fluid_side side = fluid_side::outside, double phase = 0.0) {
+inline polygon_mesh<3> gear(const vec<3>& base_centre, double tip_diameter, double root_diameter,
+                            index_t teeth, double thickness, fluid_side side = fluid_side::outside,
+                            double phase = 0.0) {
   detail::check_positive(thickness, "gear", "thickness");
   const vec<2> c = base_centre.head<2>();
-  return detail::extrude(gear_profile(c, tip_diameter, root_diameter, teeth, phase), c, base_centre.z(), thickness, 1,
-                         true, side);
+  return detail::extrude(gear_profile(c, tip_diameter, root_diameter, teeth, phase), c, base_centre.z(),
+                         thickness, 1, true, side);
 }
 
 }  // namespace mpskit::geometry

@@ -21,8 +21,8 @@ using angular_velocity = std::conditional_t<D == 2, double, vec<3>>;
 /// Rigid transform x ↦ R x + t (R a rotation).
 template <int D>
 struct rigid_transform {
-  mat<D> rotation = mat<D>::Identity();     ///< R
-  vec<D> translation = vec<D>::Zero();      ///< t
+  mat<D> rotation = mat<D>::Identity();  ///< R
+  vec<D> translation = vec<D>::Zero();   ///< t
   /// Applies the transform to a point.
   vec<D> apply(const vec<D>& x) const { return rotation * x + translation; }
 };
@@ -51,7 +51,7 @@ inline vec<3> cross_omega(const vec<3>& omega, const vec<3>& r) { return detail:
 /// Prescribed motion of a polygon set: pose(t) and wall velocity v(x, t). The reference geometry is
 /// the set as constructed (pose at t = 0 is the identity for the built-in motions).
 template <int D>
-  requires Dimension<D>
+requires Dimension<D>
 class prescribed_motion final {
  public:
   /// Pose as a function of time.
@@ -72,11 +72,13 @@ class prescribed_motion final {
   }
   /// Constant translation U and rotation ω about a centre that starts at c and moves with U:
   /// x(t) = R(ω t)(x_ref − c) + c + U t, v(x) = U + ω × (x − c − U t).
-  static prescribed_motion rigid(const vec<D>& centre, const vec<D>& velocity, const angular_velocity<D>& omega) {
+  static prescribed_motion rigid(const vec<D>& centre, const vec<D>& velocity,
+                                 const angular_velocity<D>& omega) {
     check_finite(centre, "centre");
     check_finite(velocity, "velocity");
     if constexpr (D == 2) {
-      if (!std::isfinite(omega)) fail("geometry::prescribed_motion: angular velocity must be finite, got ", omega);
+      if (!std::isfinite(omega))
+        fail("geometry::prescribed_motion: angular velocity must be finite, got ", omega);
     } else {
       check_finite(omega, "angular velocity");
     }

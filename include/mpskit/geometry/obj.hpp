@@ -16,7 +16,8 @@
 namespace mpskit::geometry {
 
 /// Parses OBJ text; `file` names the source in messages.
-inline read_result<3> parse_obj(const std::string& text, const std::string& file = "<obj>", const read_options& opt = {}) {
+inline read_result<3> parse_obj(const std::string& text, const std::string& file = "<obj>",
+                                const read_options& opt = {}) {
   std::istringstream in(text);
   std::string line;
   index_t ln = 0;
@@ -42,8 +43,8 @@ inline read_result<3> parse_obj(const std::string& text, const std::string& file
         const long long r = detail::to_integer(ref, file, ln, "face vertex index");
         const long long idx = r > 0 ? r - 1 : nv + r;  // negative: relative to the vertices so far
         if (r == 0 || idx < 0 || idx >= nv)
-          fail(file, ":", ln, ": face refers to vertex ", r, ", but ", nv, " vertices are defined so far (accepted 1..", nv,
-               " or -", nv, "..-1)");
+          fail(file, ":", ln, ": face refers to vertex ", r, ", but ", nv,
+               " vertices are defined so far (accepted 1..", nv, " or -", nv, "..-1)");
         ids.push_back(idx);
       }
       for (std::size_t k = 1; k + 1 < ids.size(); ++k) {
@@ -79,6 +80,8 @@ inline std::string format_obj(const polygon_mesh<3>& m) {
 }
 
 /// Writes an OBJ file.
-inline void write_obj(const std::string& path, const polygon_mesh<3>& m) { detail::write_file<3>(path, format_obj(m)); }
+inline void write_obj(const std::string& path, const polygon_mesh<3>& m) {
+  detail::write_file<3>(path, format_obj(m));
+}
 
 }  // namespace mpskit::geometry

@@ -31,10 +31,10 @@ using element_indices = Eigen::Matrix<index_t, D, Eigen::Dynamic>;
 /// Vertices and elements as read or generated, before any acceleration structure.
 /// Orientation convention: the winding normal (2D: left of a→b; 3D: (b−a)×(c−a)) points to the fluid.
 template <int D>
-  requires Dimension<D>
+requires Dimension<D>
 struct polygon_mesh {
-  points<D> vertices;            ///< vertex coordinates (m), vertex i is `.col(i)`
-  element_indices<D> elements;   ///< connectivity, element e is `.col(e)`
+  points<D> vertices;           ///< vertex coordinates (m), vertex i is `.col(i)`
+  element_indices<D> elements;  ///< connectivity, element e is `.col(e)`
   /// Number of elements.
   index_t size() const { return elements.cols(); }
   /// The D vertices of element e as the columns of a D×D matrix.
@@ -56,24 +56,28 @@ struct facet_ref {
 
 /// Defects of a polygon set (readers fill `merged_vertices` and `dropped_*`).
 struct quality_report {
-  index_t vertices = 0;                       ///< number of vertices
-  index_t elements = 0;                       ///< number of elements
-  index_t components = 0;                     ///< connected components (through shared facets)
-  std::vector<index_t> degenerate;            ///< elements of zero (or rounding-level) length/area, or repeated vertices
-  std::vector<std::pair<index_t, index_t>> duplicate;  ///< (element, earlier element with the same vertex set)
-  std::vector<facet_ref> open;                ///< facets used by one element only (open edges; 2D: polyline ends)
-  std::vector<facet_ref> non_manifold;        ///< one use of each facet shared by more than two elements
-  std::vector<facet_ref> inconsistent;        ///< one use of each facet shared by two elements with the same direction
-  index_t unreferenced_vertices = 0;          ///< vertices no element uses
-  index_t merged_vertices = 0;                ///< coincident vertices merged by a reader (STL)
-  index_t dropped_degenerate = 0;             ///< degenerate elements removed on request
-  index_t dropped_duplicate = 0;              ///< duplicate elements removed on request
-  index_t flipped = 0;                        ///< elements re-oriented (consistency and seed)
+  index_t vertices = 0;    ///< number of vertices
+  index_t elements = 0;    ///< number of elements
+  index_t components = 0;  ///< connected components (through shared facets)
+  std::vector<index_t>
+      degenerate;  ///< elements of zero (or rounding-level) length/area, or repeated vertices
+  std::vector<std::pair<index_t, index_t>>
+      duplicate;                        ///< (element, earlier element with the same vertex set)
+  std::vector<facet_ref> open;          ///< facets used by one element only (open edges; 2D: polyline ends)
+  std::vector<facet_ref> non_manifold;  ///< one use of each facet shared by more than two elements
+  std::vector<facet_ref>
+      inconsistent;  ///< one use of each facet shared by two elements with the same direction
+  index_t unreferenced_vertices = 0;  ///< vertices no element uses
+  index_t merged_vertices = 0;        ///< coincident vertices merged by a reader (STL)
+  index_t dropped_degenerate = 0;     ///< degenerate elements removed on request
+  index_t dropped_duplicate = 0;      ///< duplicate elements removed on request
+  index_t flipped = 0;                ///< elements re-oriented (consistency and seed)
   /// No open and no non-manifold facets (a closed, manifold boundary).
   bool closed() const { return open.empty() && non_manifold.empty(); }
   /// No defect at all (open facets are not a defect for open tanks, but are counted here).
   bool clean() const {
-    return degenerate.empty() && duplicate.empty() && open.empty() && non_manifold.empty() && inconsistent.empty();
+    return degenerate.empty() && duplicate.empty() && open.empty() && non_manifold.empty() &&
+           inconsistent.empty();
   }
   /// One-paragraph human-readable summary.
   std::string summary() const {
@@ -116,12 +120,15 @@ inline bool is_degenerate(const polygon_mesh<D>& m, index_t e, double scale) {
 
 /// A sorted record of facet uses: key (vertex pair), element, local index, direction (+1/−1).
 struct facet_use {
-  index_t a, b;   // sorted key (2D: b = -1)
+  index_t a, b;  // sorted key (2D: b = -1)
   index_t element;
   int local;
   int dir;
   bool operator<(const facet_use& o) const {
-    return a != o.a ? a < o.a : b != o.b ? b < o.b : element != o.element ? element < o.element : local < o.local;
+    return a != o.a               ? a < o.a
+           : b != o.b             ? b < o.b
+           : element != o.element ? element < o.element
+                                  : local < o.local;
   }
 };
 
@@ -229,7 +236,8 @@ inline quality_report analyse(const polygon_mesh<D>& m) {
     for (std::size_t k = i + 1; k < j; ++k) comp.unite(uses[i].element, uses[k].element);
     if (n == 1) q.open.push_back({uses[i].element, uses[i].local});
     if (n > 2) q.non_manifold.push_back({uses[i].element, uses[i].local});
-    if (n == 2 && uses[i].dir == uses[i + 1].dir) q.inconsistent.push_back({uses[i + 1].element, uses[i + 1].local});
+    if (n == 2 && uses[i].dir == uses[i + 1].dir)
+      q.inconsistent.push_back({uses[i + 1].element, uses[i + 1].local});
   });
   for (index_t e = 0; e < m.size(); ++e)
     if (comp.find(e) == e) ++q.components;
@@ -293,7 +301,8 @@ inline std::vector<index_t> components(const polygon_mesh<D>& m) {
   detail::for_each_facet(uses, [&](std::size_t i, std::size_t j) {
     for (std::size_t k = i + 1; k < j; ++k) c.unite(uses[i].element, uses[k].element);
   });
-  std::vector<index_t> id(static_cast<std::size_t>(m.size()), npos), root_id(static_cast<std::size_t>(m.size()), npos);
+  std::vector<index_t> id(static_cast<std::size_t>(m.size()), npos),
+      root_id(static_cast<std::size_t>(m.size()), npos);
   index_t next = 0;
   for (index_t e = 0; e < m.size(); ++e) {
     const index_t r = c.find(e);

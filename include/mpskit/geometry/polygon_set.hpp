@@ -42,8 +42,8 @@ struct closest_point {
   index_t element = npos;           ///< element holding it; npos if nothing within the search radius
   vec<D> weights = vec<D>::Zero();  ///< barycentric weights of the element's D vertices (sum 1)
   double distance = std::numeric_limits<double>::infinity();  ///< unsigned distance (m)
-  feature_kind kind = feature_kind::face;  ///< face, edge (3D) or vertex the point lies on
-  int local = -1;                   ///< local edge/vertex index of that feature, -1 for the face
+  feature_kind kind = feature_kind::face;                     ///< face, edge (3D) or vertex the point lies on
+  int local = -1;  ///< local edge/vertex index of that feature, -1 for the face
   /// True if an element was found.
   bool found() const { return element != npos; }
 };
@@ -76,7 +76,7 @@ struct crossing {
 /// Segments (D = 2) or triangles (D = 3) describing walls, with the fluid on the side of the winding
 /// normal (2D: left of a→b; 3D: (b−a)×(c−a)). See docs/geometry.md.
 template <int D>
-  requires Dimension<D>
+requires Dimension<D>
 class polygon_set final {
  public:
   static constexpr int dimension = D;  ///< spatial dimension
@@ -95,8 +95,9 @@ class polygon_set final {
     {
       const quality_report q0 = analyse(mesh);
       if (!q0.degenerate.empty())
-        fail("geometry::polygon_set: element ", q0.degenerate.front(), " is degenerate (zero length/area or repeated vertex; ",
-             q0.degenerate.size(), " in total); drop it before building (reader option drop_degenerate)");
+        fail("geometry::polygon_set: element ", q0.degenerate.front(),
+             " is degenerate (zero length/area or repeated vertex; ", q0.degenerate.size(),
+             " in total); drop it before building (reader option drop_degenerate)");
     }
     index_t flipped = 0;
     if (options.orient_consistently) flipped += orient_consistently(mesh);
@@ -141,11 +142,13 @@ class polygon_set final {
 
   /// Closest point within max_distance (default: anywhere); ties within a relative 1e-12 of the
   /// squared distance go to the lower element index so results are deterministic (ERP notes §3.1).
-  closest_point<D> closest(const vec<D>& x, double max_distance = std::numeric_limits<double>::infinity()) const {
+  closest_point<D> closest(const vec<D>& x,
+                           double max_distance = std::numeric_limits<double>::infinity()) const {
     closest_point<D> best;
     double best2 = max_distance * max_distance;
     hierarchy_.nearest(
-        x, [&](index_t e) { consider(x, e, best, best2); }, [&]() { return best2 * (1.0 + tie_tol) + tiny2; });
+        x, [&](index_t e) { consider(x, e, best, best2); },
+        [&]() { return best2 * (1.0 + tie_tol) + tiny2; });
     if (best.found()) best.distance = std::sqrt(best2);
     return best;
   }
@@ -233,7 +236,8 @@ class polygon_set final {
   /// True if the closed segment a–b touches any element (pair visibility across thin walls).
   bool crosses(const vec<D>& a, const vec<D>& b) const {
     const vec<D> d = b - a;
-    return hierarchy_.segment(a, d, [&](index_t e) { return detail::segment_hits_element<D>(a, b, element(e)) >= 0.0; });
+    return hierarchy_.segment(
+        a, d, [&](index_t e) { return detail::segment_hits_element<D>(a, b, element(e)) >= 0.0; });
   }
 
   /// First element met moving from a to b (smallest t; ties to the lower element), with the crossing
@@ -283,9 +287,9 @@ class polygon_set final {
   void consider(const vec<D>& x, index_t e, closest_point<D>& best, double& best2) const {
     const detail::element_closest<D> c = detail::closest_on_element<D>(x, element(e));
     const double d2 = (x - c.point).squaredNorm();
-    const bool better = best.element == npos
-                            ? d2 <= best2
-                            : (d2 < best2 * (1.0 - tie_tol) || (d2 <= best2 * (1.0 + tie_tol) + tiny2 && e < best.element));
+    const bool better = best.element == npos ? d2 <= best2
+                                             : (d2 < best2 * (1.0 - tie_tol) ||
+                                                (d2 <= best2 * (1.0 + tie_tol) + tiny2 && e < best.element));
     if (!better) return;
     best2 = d2;
     best.point = c.point;
@@ -317,7 +321,8 @@ class polygon_set final {
     const index_t n = size(), nv = ref_vertices_.cols();
     const polygon_mesh<D> m{ref_vertices_, elements_};
     ref_normals_.resize(D, n);
-    for (index_t e = 0; e < n; ++e) ref_normals_.col(e) = detail::winding_normal<D>(m.element(e)).normalized();
+    for (index_t e = 0; e < n; ++e)
+      ref_normals_.col(e) = detail::winding_normal<D>(m.element(e)).normalized();
     // vertex pseudo-normals: angle-weighted (Bærentzen & Aanæs 2005 eq. 2; 2D: equal weights)
     ref_vertex_normals_ = points<D>::Zero(D, nv);
     for (index_t e = 0; e < n; ++e) {
@@ -336,7 +341,8 @@ class polygon_set final {
         vec<D> s = vec<D>::Zero();
         for (std::size_t k = i; k < j; ++k) s += ref_normals_.col(uses[k].element);
         if (s.norm() < 1e-12) s = ref_normals_.col(uses[i].element);  // folded sheet: no preferred side
-        for (std::size_t k = i; k < j; ++k) ref_edge_normals_.col(uses[k].element * D + uses[k].local) = s.normalized();
+        for (std::size_t k = i; k < j; ++k)
+          ref_edge_normals_.col(uses[k].element * D + uses[k].local) = s.normalized();
       }
       const std::size_t uses_n = j - i;
       if (uses_n == 1) return;  // open facet: not a feature
@@ -346,7 +352,8 @@ class polygon_set final {
         feature = c < cos_feature_ || uses[i].dir == uses[i + 1].dir;
       }
       if (feature) {
-        for (int s = 0; s < D - 1; ++s) feature_vertex[elements_((uses[i].local + s) % D, uses[i].element)] = 1;
+        for (int s = 0; s < D - 1; ++s)
+          feature_vertex[elements_((uses[i].local + s) % D, uses[i].element)] = 1;
         return;
       }
       const index_t e1 = uses[i].element, e2 = uses[i + 1].element;
@@ -365,10 +372,12 @@ class polygon_set final {
     points<D> group_sum = points<D>::Zero(D, n * D);
     for (index_t e = 0; e < n; ++e) {
       const mat<D> v = m.element(e);
-      for (int k = 0; k < D; ++k) group_sum.col(corners.find(e * D + k)) += detail::max_weight<D>(v, k) * ref_normals_.col(e);
+      for (int k = 0; k < D; ++k)
+        group_sum.col(corners.find(e * D + k)) += detail::max_weight<D>(v, k) * ref_normals_.col(e);
     }
     ref_corner_normals_.resize(D, n * D);
-    for (index_t c = 0; c < n * D; ++c) ref_corner_normals_.col(c) = group_sum.col(corners.find(c)).normalized();
+    for (index_t c = 0; c < n * D; ++c)
+      ref_corner_normals_.col(c) = group_sum.col(corners.find(c)).normalized();
     normals_ = ref_normals_;
     vertex_normals_ = ref_vertex_normals_;
     corner_normals_ = ref_corner_normals_;

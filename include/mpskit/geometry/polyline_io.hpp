@@ -57,10 +57,12 @@ inline read_result<2> parse_polyline(const std::string& text, const std::string&
   m.vertices.resize(2, nv);
   for (index_t i = 0; i < nv; ++i) {
     const std::vector<std::string> c = next();
-    if (c.empty()) fail(file, ":", lineno, ": file ends after ", i, " of ", nv, " vertices (truncated or wrong count)");
+    if (c.empty())
+      fail(file, ":", lineno, ": file ends after ", i, " of ", nv, " vertices (truncated or wrong count)");
     if (c[0] == "segments")
       fail(file, ":", lineno, ": found 'segments' after ", i, " of ", nv, " vertices (wrong vertex count)");
-    if (c.size() != 2) fail(file, ":", lineno, ": vertex ", i, ": expected 2 coordinates, found ", c.size(), " field(s)");
+    if (c.size() != 2)
+      fail(file, ":", lineno, ": vertex ", i, ": expected 2 coordinates, found ", c.size(), " field(s)");
     for (int k = 0; k < 2; ++k) m.vertices(k, i) = detail::to_double(c[k], file, lineno, "vertex coordinate");
   }
   const index_t ns = count("segments");
@@ -68,16 +70,21 @@ inline read_result<2> parse_polyline(const std::string& text, const std::string&
   std::vector<std::string> where;
   for (index_t e = 0; e < ns; ++e) {
     const std::vector<std::string> c = next();
-    if (c.empty()) fail(file, ":", lineno, ": file ends after ", e, " of ", ns, " segments (truncated or wrong count)");
-    if (c.size() != 2) fail(file, ":", lineno, ": segment ", e, ": expected 2 vertex indices, found ", c.size(), " field(s)");
+    if (c.empty())
+      fail(file, ":", lineno, ": file ends after ", e, " of ", ns, " segments (truncated or wrong count)");
+    if (c.size() != 2)
+      fail(file, ":", lineno, ": segment ", e, ": expected 2 vertex indices, found ", c.size(), " field(s)");
     for (int k = 0; k < 2; ++k) {
       const long long v = detail::to_integer(c[k], file, lineno, "segment vertex index");
-      if (v < 0 || v >= nv) fail(file, ":", lineno, ": segment ", e, " refers to vertex ", v, ", accepted range [0, ", nv - 1, "]");
+      if (v < 0 || v >= nv)
+        fail(file, ":", lineno, ": segment ", e, " refers to vertex ", v, ", accepted range [0, ", nv - 1,
+             "]");
       m.elements(k, e) = v;
     }
     where.push_back(mpskit::detail::concat("line ", lineno));
   }
-  if (!next().empty()) fail(file, ":", lineno, ": unexpected content after the last segment (more segments than declared?)");
+  if (!next().empty())
+    fail(file, ":", lineno, ": unexpected content after the last segment (more segments than declared?)");
   return detail::finish<2>(std::move(m), where, opt, file);
 }
 

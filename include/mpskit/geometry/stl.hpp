@@ -18,7 +18,8 @@
 
 namespace mpskit::geometry {
 
-static_assert(std::endian::native == std::endian::little, "mpskit: binary STL I/O assumes a little-endian host");
+static_assert(std::endian::native == std::endian::little,
+              "mpskit: binary STL I/O assumes a little-endian host");
 
 /// STL flavour for the writer.
 enum class stl_format { ascii, binary };
@@ -50,7 +51,8 @@ class vertex_welder {
   index_t added_ = 0;
 };
 
-inline read_result<3> parse_stl_binary(const std::string& data, const std::string& file, const read_options& opt) {
+inline read_result<3> parse_stl_binary(const std::string& data, const std::string& file,
+                                       const read_options& opt) {
   std::uint32_t n = 0;
   std::memcpy(&n, data.data() + 80, 4);
   const std::uint64_t need = 84 + 50ull * n;
@@ -66,7 +68,8 @@ inline read_result<3> parse_stl_binary(const std::string& data, const std::strin
     std::memcpy(f, rec, sizeof f);
     for (int k = 0; k < 3; ++k) {
       vec<3> p(f[3 + 3 * k], f[4 + 3 * k], f[5 + 3 * k]);
-      if (!p.allFinite()) fail(file, ": triangle ", t, " (byte offset ", 84 + 50ull * t, "): non-finite vertex coordinate");
+      if (!p.allFinite())
+        fail(file, ": triangle ", t, " (byte offset ", 84 + 50ull * t, "): non-finite vertex coordinate");
       tris[t][k] = w.add(p);
     }
     where[t] = mpskit::detail::concat("triangle ", t);
@@ -74,7 +77,8 @@ inline read_result<3> parse_stl_binary(const std::string& data, const std::strin
   return finish<3>(w.mesh(tris), where, opt, file, w.merged());
 }
 
-inline read_result<3> parse_stl_ascii(const std::string& data, const std::string& file, const read_options& opt) {
+inline read_result<3> parse_stl_ascii(const std::string& data, const std::string& file,
+                                      const read_options& opt) {
   // token stream with line numbers
   std::vector<std::pair<std::string, index_t>> tok;
   {
@@ -145,7 +149,8 @@ inline read_result<3> parse_stl_ascii(const std::string& data, const std::string
 }  // namespace detail
 
 /// Parses STL bytes: binary if the size is exactly 84 + 50·count, ASCII if it starts with "solid".
-inline read_result<3> parse_stl(const std::string& data, const std::string& file = "<stl>", const read_options& opt = {}) {
+inline read_result<3> parse_stl(const std::string& data, const std::string& file = "<stl>",
+                                const read_options& opt = {}) {
   if (data.size() >= 84) {
     std::uint32_t n = 0;
     std::memcpy(&n, data.data() + 80, 4);
@@ -156,7 +161,8 @@ inline read_result<3> parse_stl(const std::string& data, const std::string& file
     return detail::parse_stl_ascii(data, file, opt);
   if (s != std::string::npos && data.compare(s, 5, "solid") == 0 && data.size() < 84)
     return detail::parse_stl_ascii(data, file, opt);
-  if (data.size() < 84) fail(file, ": ", data.size(), " bytes: too short for binary STL (84-byte header) and not ASCII STL");
+  if (data.size() < 84)
+    fail(file, ": ", data.size(), " bytes: too short for binary STL (84-byte header) and not ASCII STL");
   return detail::parse_stl_binary(data, file, opt);  // reports the size mismatch
 }
 
@@ -176,7 +182,8 @@ inline std::string format_stl(const polygon_mesh<3>& m, stl_format format = stl_
       const mat<3> v = m.element(e);
       const vec<3> n = detail::winding_normal<3>(v).normalized();
       os << "  facet normal " << n.x() << " " << n.y() << " " << n.z() << "\n    outer loop\n";
-      for (int k = 0; k < 3; ++k) os << "      vertex " << v(0, k) << " " << v(1, k) << " " << v(2, k) << "\n";
+      for (int k = 0; k < 3; ++k)
+        os << "      vertex " << v(0, k) << " " << v(1, k) << " " << v(2, k) << "\n";
       os << "    endloop\n  endfacet\n";
     }
     os << "endsolid " << name << "\n";
@@ -200,7 +207,8 @@ inline std::string format_stl(const polygon_mesh<3>& m, stl_format format = stl_
 }
 
 /// Writes an STL file.
-inline void write_stl(const std::string& path, const polygon_mesh<3>& m, stl_format format = stl_format::binary) {
+inline void write_stl(const std::string& path, const polygon_mesh<3>& m,
+                      stl_format format = stl_format::binary) {
   detail::write_file<3>(path, format_stl(m, format));
 }
 

@@ -28,7 +28,7 @@ struct collection_crossing : crossing<D> {
 
 /// Polygon sets queried together (models WallGeometry).
 template <int D>
-  requires Dimension<D>
+requires Dimension<D>
 class wall_collection final {
  public:
   static constexpr int dimension = D;  ///< spatial dimension
@@ -47,7 +47,8 @@ class wall_collection final {
   const polygon_set<D>& operator[](index_t k) const { return sets_.at(static_cast<std::size_t>(k)); }
 
   /// Closest wall point over all sets within max_distance (ties to the lower set index).
-  collection_point<D> query(const vec<D>& x, double max_distance = std::numeric_limits<double>::infinity()) const {
+  collection_point<D> query(const vec<D>& x,
+                            double max_distance = std::numeric_limits<double>::infinity()) const {
     collection_point<D> best;
     double bound = max_distance;
     for (index_t k = 0; k < size(); ++k) {

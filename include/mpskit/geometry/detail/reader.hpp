@@ -57,7 +57,8 @@ inline double to_double(const std::string& tok, const std::string& file, index_t
   errno = 0;
   const double v = std::strtod(b, &e);
   if (e == b || *e != '\0') fail(file, ":", line, ": ", what, ": '", tok, "' is not a number");
-  if (!std::isfinite(v) || errno == ERANGE) fail(file, ":", line, ": ", what, ": '", tok, "' is not a finite number");
+  if (!std::isfinite(v) || errno == ERANGE)
+    fail(file, ":", line, ": ", what, ": '", tok, "' is not a finite number");
   return v;
 }
 
@@ -67,15 +68,16 @@ inline long long to_integer(const std::string& tok, const std::string& file, ind
   char* e = nullptr;
   errno = 0;
   const long long v = std::strtoll(b, &e, 10);
-  if (e == b || *e != '\0' || errno == ERANGE) fail(file, ":", line, ": ", what, ": '", tok, "' is not an integer");
+  if (e == b || *e != '\0' || errno == ERANGE)
+    fail(file, ":", line, ": ", what, ": '", tok, "' is not an integer");
   return v;
 }
 
 /// Final pass: analyses the mesh, refuses (or drops) degenerate elements and optionally drops
 /// duplicates. `where[e]` names element e's origin ("line 12" or "triangle 7").
 template <int D>
-inline read_result<D> finish(polygon_mesh<D> mesh, const std::vector<std::string>& where, const read_options& opt,
-                             const std::string& file, index_t merged = 0) {
+inline read_result<D> finish(polygon_mesh<D> mesh, const std::vector<std::string>& where,
+                             const read_options& opt, const std::string& file, index_t merged = 0) {
   validate(mesh, file);
   if (mesh.size() == 0) fail(file, ": no elements");
   quality_report q = analyse(mesh);
