@@ -443,6 +443,24 @@ TEST_SUITE("geometry") {
       const vec<3> r = a.point - vec<3>(0.3, -0.1, 0.5 * t);
       CHECK((a.velocity - (vec<3>(0, 0, 0.5) + geo::detail::cross3(vec<3>(0, 0, omega), r))).norm() <= 1e-12);
     }
+    // a particle at rest swept by a rotating tooth: caught only by the moving-wall overload
+    {
+      geo::polygon_set<2> g2(geo::gear(vec<2>(0, 0), 1.0, 0.6, 6), {},
+                             geo::prescribed_motion<2>::rotation(vec<2>(0, 0), 1.0));
+      // tooth 0 spans angles [0.31, 1.05] (tip land [0.47, 0.89]); angle 1.2 at r = 0.45 is in the gap
+      // that the counter-clockwise rotation sweeps the tooth into
+      const vec<2> p = 0.45 * vec<2>(std::cos(1.2), std::sin(1.2));
+      REQUIRE(g2.signed_distance(p) > 0.0);
+      double t1 = 0.0;  // advance until p is inside the solid
+      while (g2.signed_distance(p) > 0.0 && t1 < 2.0) g2.move_to(t1 += 0.01);
+      REQUIRE(g2.signed_distance(p) < 0.0);
+      const geo::rigid_transform<2> prev = (g2.move_to(t1 - 0.01), g2.pose());
+      g2.move_to(t1);
+      CHECK(!g2.first_crossing(p, p).has_value());  // a zero-length move sees nothing
+      const std::optional<geo::crossing<2>> c = g2.first_crossing(p, p, prev);
+      REQUIRE(c.has_value());
+      CHECK(c->entering);
+    }
     // a user callable velocity (conveyor belt: fixed geometry, tangential wall velocity)
     geo::polygon_set<2> belt(
         geo::tank(vec<2>(0, 0), vec<2>(1, 1)), {},
@@ -528,6 +546,35 @@ TEST_SUITE("geometry") {
     CHECK(o.mesh.size() == 6);  // quad base fan-triangulated into 2 + 4 sides
     CHECK(o.quality.closed());
     CHECK(o.quality.inconsistent.empty());
+  }
+
+  TEST_CASE("geometry: readers report orientation defects and handle STL variants") {
+    const geo::polygon_mesh<3> cube = geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::outside);
+    // one flipped triangle: its 3 edges are each traversed twice in the same direction
+    geo::polygon_mesh<3> flipped = cube;
+    flipped.flip(4);
+    const geo::read_result<3> r = geo::parse_stl(geo::format_stl(flipped, geo::stl_format::ascii), "f.stl");
+    CHECK(r.quality.inconsistent.size() == 3);
+    CHECK(geo::polygon_set<3>(r.mesh).quality().flipped == 1);  // majority orientation restored
+    // two solids in one ASCII file; a binary file whose 80-byte header starts with "solid"
+    std::string two = geo::format_stl(geo::box(vec<3>(0, 0, 0), vec<3>(1, 1, 1), geo::fluid_side::outside),
+                                      geo::stl_format::ascii, "a") +
+                      geo::format_stl(geo::box(vec<3>(2, 0, 0), vec<3>(3, 1, 1), geo::fluid_side::outside),
+                                      geo::stl_format::ascii, "b");
+    const geo::read_result<3> t = geo::parse_stl(two, "two.stl");
+    CHECK(t.mesh.size() == 24);
+    CHECK(t.quality.components == 2);
+    std::string bin = geo::format_stl(cube, geo::stl_format::binary);
+    bin.replace(0, 12, "solid header");
+    CHECK(geo::parse_stl(bin, "b.stl").mesh.size() == 12);
+    // a duplicated facet is reported, kept by default and dropped on request
+    const std::string dup = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3 1\n";
+    CHECK(geo::parse_obj(dup, "d.obj").quality.duplicate.size() == 1);
+    geo::read_options drop;
+    drop.drop_duplicates = true;
+    const geo::read_result<3> d = geo::parse_obj(dup, "d.obj", drop);
+    CHECK(d.mesh.size() == 1);
+    CHECK(d.quality.dropped_duplicate == 1);
   }
 
   TEST_CASE("geometry: readers refuse broken files naming file, line or element") {

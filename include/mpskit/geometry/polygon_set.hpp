@@ -264,6 +264,15 @@ class polygon_set final {
     return c;
   }
 
+  /// First crossing of a move a → b while the set itself moved rigidly from `previous_pose` to the
+  /// current pose (moving walls): a is carried with the wall, a' = T_now(T_prev⁻¹(a)), and a'→b is
+  /// tested against the current geometry, so a particle at rest swept by a wall is caught.
+  std::optional<crossing<D>> first_crossing(const vec<D>& a, const vec<D>& b,
+                                            const rigid_transform<D>& previous_pose) const {
+    const vec<D> a_ref = previous_pose.rotation.transpose() * (a - previous_pose.translation);
+    return first_crossing(pose_.apply(a_ref), b);
+  }
+
   /// Sets the pose from the prescribed motion at time t and refits the hierarchy.
   void move_to(double t) {
     time_ = t;
