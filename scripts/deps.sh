@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages mpskit's examples and tests need, only when one is missing
 # (so a machine that has them runs no apt at all). Needs root on a fresh machine.
 set -euo pipefail
-pkgs=(g++ cmake make libeigen3-dev libnanoflann-dev doctest-dev libsuitesparse-dev gnuplot-nox)
+pkgs=(g++ cmake make libeigen3-dev libnanoflann-dev doctest-dev libsuitesparse-dev gnuplot-nox python3-meshio)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -174,6 +174,34 @@ class particle_state<D, field_list<Extra...>> {
     return apply(src, static_cast<index_t>(src.size()), 0);
   }
 
+  /// Sets the layout read back from a checkpoint or output file (io/): every field resized to
+  /// n_real + n_ghost entries (the first min(old, new) entries kept, new ones zero), counts and the next
+  /// id set. Not a resize path (nothing remapped, no ids given): the caller fills every field, then
+  /// validates.
+  void restore_layout(index_t n_real, index_t n_ghost, particle_id next_id) {
+    if (n_real < 0 || n_ghost < 0) fail("restore_layout: counts ", n_real, " real, ", n_ghost, " ghost must be >= 0");
+    const index_t m = n_real + n_ghost;
+    for_each_field([&](auto tag) {
+      using T = decltype(tag);
+      auto& s = get<T>();
+      const index_t keep = std::min(m, static_cast<index_t>(field_size(s)));
+      if constexpr (T::shape == field_shape::vector) {
+        points<D> out = points<D>::Zero(D, m);
+        out.leftCols(keep) = s.leftCols(keep);
+        s = std::move(out);
+      } else if constexpr (T::shape == field_shape::scalar) {
+        Eigen::VectorXd out = Eigen::VectorXd::Zero(m);
+        out.head(keep) = s.head(keep);
+        s = std::move(out);
+      } else {
+        s.resize(static_cast<std::size_t>(m), typename T::value_type{});
+      }
+    });
+    n_real_ = n_real;
+    n_total_ = m;
+    next_id_ = next_id;
+  }
+
   // ---- validation ------------------------------------------------------------------------------------
 
   /// Checks every field has size() entries, positions and velocities are finite, ids are unique

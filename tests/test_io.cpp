@@ -1,0 +1,749 @@
+// io/: base64 and checksum vectors, .vtu/.pvd round trips through the project's reader (both encodings,
+// 2D and 3D, every field shape) and through meshio when present, malformed files refused, CSV series,
+// progress and summary formatting (suite "io"); checkpoint round trip, bitwise restart and refusal of
+// truncated, corrupted, wrong-version and mismatched checkpoints (suite "checkpoint").
+#include <doctest/doctest.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mpskit/core/state.hpp"
+#include "mpskit/io/checkpoint.hpp"
+#include "mpskit/io/concepts.hpp"
+#include "mpskit/io/csv.hpp"
+#include "mpskit/io/progress.hpp"
+#include "mpskit/io/vtk.hpp"
+#include "mpskit/io/vtk_reader.hpp"
+
+#if __has_include(<unistd.h>)
+#include <unistd.h>
+#endif
+
+using namespace mpskit;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::uint64_t default_seed = 20261122;
+
+/// The seed of this run: MPSKIT_TEST_SEED when set, printed either way.
+std::uint64_t test_seed() {
+  static const std::uint64_t s = [] {
+    const char* e = std::getenv("MPSKIT_TEST_SEED");
+    const std::uint64_t v = e ? std::strtoull(e, nullptr, 10) : default_seed;
+    MESSAGE("io tests: seed ", v, " (set MPSKIT_TEST_SEED to change)");
+    return v;
+  }();
+  return s;
+}
+
+// Test-only fields of integer types the core does not use, to cover every VTK integer width.
+struct level : field::integer_base<std::int32_t> {
+  static constexpr std::string_view name = "level", units = "1";
+};
+struct tag16 : field::integer_base<std::uint16_t> {
+  static constexpr std::string_view name = "tag16", units = "1";
+};
+using extra_fields = field_list<field::pressure, field::volume, field::normal, field::partner, level, tag16>;
+template <int D>
+using state_t = particle_state<D, extra_fields>;
+
+/// A scratch directory removed at the end of the test.
+struct scratch {
+  fs::path dir;
+  explicit scratch(const std::string& name) {
+#if __has_include(<unistd.h>)
+    const long pid = static_cast<long>(::getpid());
+#else
+    const long pid = 0;
+#endif
+    dir = fs::temp_directory_path() / ("mpskit_test_io_" + std::to_string(pid) + "_" + name);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~scratch() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  fs::path operator/(const std::string& f) const { return dir / f; }
+};
+
+/// Doubles that stress a binary round trip: negative zero, a subnormal, the largest finite, π.
+double special_or_random(std::mt19937_64& rng) {
+  static const double specials[] = {-0.0, 5e-324, std::numeric_limits<double>::max(), std::numbers::pi};
+  std::uniform_int_distribution<int> pick(0, 15);
+  const int k = pick(rng);
+  if (k < 4) return specials[k];
+  return std::uniform_real_distribution<double>(-1e3, 1e3)(rng);
+}
+
+/// A state with n real particles (some removed so ids are not contiguous), g ghosts and every field
+/// filled with random values.
+template <int D>
+state_t<D> make_state(index_t n, index_t g, std::mt19937_64& rng) {
+  state_t<D> s(n + n / 4);
+  std::vector<char> mask(static_cast<std::size_t>(s.n_real()), 0);
+  for (std::size_t i = 0; i < mask.size(); i += 5) mask[i] = 1;
+  s.remove(mask);
+  s.add_ghosts(g, ghost_role::imaginary);
+  const index_t m = s.size();
+  std::uniform_int_distribution<int> any_kind(0, 4);
+  std::uniform_int_distribution<std::uint32_t> bits(0, 63);
+  std::uniform_int_distribution<index_t> any_index(-1, m - 1), any_real(0, std::max<index_t>(s.n_real() - 1, 0));
+  std::uniform_int_distribution<std::int32_t> any_level(-100000, 100000);
+  std::uniform_int_distribution<std::uint32_t> any_tag(0, 65535);
+  for (index_t i = 0; i < m; ++i) {
+    const std::size_t k = static_cast<std::size_t>(i);
+    for (int a = 0; a < D; ++a) {
+      s.x()(a, i) = special_or_random(rng);
+      s.u()(a, i) = special_or_random(rng);
+      s.template get<field::normal>()(a, i) = special_or_random(rng);
+    }
+    s.template get<field::pressure>()[i] = special_or_random(rng);
+    s.template get<field::volume>()[i] = special_or_random(rng);
+    s.kinds()[k] = static_cast<kind>(any_kind(rng));
+    s.flags()[k] = bits(rng);
+    s.template get<field::partner>()[k] = any_index(rng);
+    s.template get<level>()[k] = any_level(rng);
+    s.template get<tag16>()[k] = static_cast<std::uint16_t>(any_tag(rng));
+    if (i >= s.n_real()) s.template get<field::parent>()[k] = any_real(rng);
+  }
+  return s;
+}
+
+/// Byte-wise equality of one field's storage (doubles compared bitwise: -0.0 ≠ 0.0, NaN == same NaN).
+template <class S>
+bool same_bytes(const S& a, const S& b) {
+  if (a.size() != b.size()) return false;
+  using V = std::remove_cvref_t<decltype(*a.data())>;
+  return a.size() == 0 || std::memcmp(a.data(), b.data(), static_cast<std::size_t>(a.size()) * sizeof(V)) == 0;
+}
+
+/// Every field, the counts and the next id equal bitwise; names the first field that differs.
+template <class State>
+std::string state_difference(const State& a, const State& b) {
+  if (a.n_real() != b.n_real() || a.n_ghost() != b.n_ghost() || a.next_id() != b.next_id()) return "layout";
+  std::string diff;
+  State::for_each_field([&](auto tag) {
+    using T = decltype(tag);
+    if (diff.empty() && !same_bytes(a.template get<T>(), b.template get<T>())) diff = std::string(T::name);
+  });
+  return diff;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+void dump(const fs::path& p, const std::string& s) {
+  std::ofstream out(p, std::ios::binary);
+  out << s;
+}
+
+/// Runs f, expects an mpskit::error whose message contains every piece.
+template <class F>
+void check_refused(F&& f, std::initializer_list<std::string> pieces) {
+  std::string msg;
+  try {
+    f();
+  } catch (const error& e) {
+    msg = e.what();
+  }
+  CAPTURE(msg);
+  REQUIRE(!msg.empty());
+  for (const auto& p : pieces) CHECK(msg.find(p) != std::string::npos);
+}
+
+/// Checks a read .vtu against the state it was written from: every array bitwise.
+template <int D>
+void check_vtu_matches(const io::vtu_file& f, const state_t<D>& s, index_t n) {
+  REQUIRE(f.n_points == n);
+  const std::size_t un = static_cast<std::size_t>(n);
+  const std::vector<double> pts = f.points.values<double>();
+  REQUIRE(pts.size() == 3 * un);
+  index_t mismatches = 0;
+  for (std::size_t i = 0; i < un; ++i)
+    for (int a = 0; a < 3; ++a) {
+      const double want = a < D ? s.x()(a, static_cast<index_t>(i)) : 0.0;
+      mismatches += std::memcmp(&pts[3 * i + static_cast<std::size_t>(a)], &want, sizeof want) != 0;
+    }
+  CHECK(mismatches == 0);
+  CHECK(f.points.units == "m");
+  state_t<D>::for_each_field([&](auto tag) {
+    using T = decltype(tag);
+    if constexpr (!std::same_as<T, field::position>) {
+      CAPTURE(T::name);
+      REQUIRE(f.has(T::name));
+      const io::vtu_array& a = f.point_array(T::name);
+      CHECK(a.units == io::detail::resolve_units(T::units, D));
+      const auto& st = s.template get<T>();
+      if constexpr (T::shape == field_shape::vector) {
+        REQUIRE(a.components == 3);
+        const std::vector<double> v = a.values<double>();
+        index_t bad = 0;
+        for (std::size_t i = 0; i < un; ++i)
+          for (int c = 0; c < 3; ++c) {
+            const double want = c < D ? st(c, static_cast<index_t>(i)) : 0.0;
+            bad += std::memcmp(&v[3 * i + static_cast<std::size_t>(c)], &want, sizeof want) != 0;
+          }
+        CHECK(bad == 0);
+      } else if constexpr (T::shape == field_shape::scalar) {
+        REQUIRE(a.type == "Float64");
+        const std::vector<double> v = a.values<double>();
+        CHECK(std::memcmp(v.data(), st.data(), un * sizeof(double)) == 0);
+      } else {
+        using U = io::detail::underlying_t<typename T::value_type>;
+        const std::vector<U> v = a.values<U>();
+        CHECK(std::memcmp(v.data(), st.data(), un * sizeof(U)) == 0);
+      }
+    }
+  });
+}
+
+/// A python3 that imports meshio, or "" (MPSKIT_PYTHON, then /usr/bin/python3, then python3 on PATH:
+/// Debian's python3-meshio installs for the system interpreter only).
+std::string python_with_meshio() {
+  std::vector<std::string> candidates;
+  if (const char* e = std::getenv("MPSKIT_PYTHON")) candidates.emplace_back(e);
+  candidates.emplace_back("/usr/bin/python3");
+  candidates.emplace_back("python3");
+  for (const auto& py : candidates)
+    if (std::system((py + " -c \"import meshio\" >/dev/null 2>&1").c_str()) == 0) return py;
+  return "";
+}
+
+// A deterministic toy "scheme" for the restart test: explicit update of x, u, p with a controller whose
+// Δt halves when the speed is high and doubles after 4 calm steps (like scheme/time_step's hysteresis).
+struct toy_controller {
+  double dt = 1e-3;
+  std::int64_t calm = 0;
+  void save(io::checkpoint_sections& s) const {
+    s.add("toy.dt", dt);
+    s.add("toy.calm", calm);
+  }
+  void load(const io::checkpoint_sections& s) {
+    dt = s.get_double("toy.dt");
+    calm = s.get_int64("toy.calm");
+  }
+};
+static_assert(io::Checkpointable<toy_controller> && !io::Checkpointable<int>);
+static_assert(io::ParticleState<state_t<2>> && io::ParticleState<state_t<3>> && !io::ParticleState<int>);
+
+template <class State>
+void toy_step(State& s, toy_controller& c, double& t, std::int64_t& step) {
+  double umax = 0.0;
+  auto& p = s.template get<field::pressure>();
+  for (index_t i = 0; i < s.n_real(); ++i) {
+    // A nonlinear oscillator with a pressure-like memory: every stored value feeds the next step.
+    for (int a = 0; a < State::dim; ++a) {
+      s.u()(a, i) += c.dt * (-std::sin(s.x()(a, i)) - 0.1 * p[i]);
+      s.x()(a, i) += c.dt * s.u()(a, i);
+    }
+    p[i] = 0.5 * p[i] + std::cos(s.x().col(i).norm());
+    umax = std::max(umax, s.u().col(i).norm());
+  }
+  if (umax * c.dt > 0.02) {
+    c.dt *= 0.5;
+    c.calm = 0;
+  } else if (++c.calm >= 4) {
+    c.dt *= 2.0;
+    c.calm = 0;
+  }
+  t += c.dt;
+  ++step;
+}
+
+}  // namespace
+
+TEST_SUITE("io") {
+  TEST_CASE("io: base64 and FNV-1a match their published test vectors") {
+    // RFC 4648 §10 test vectors.
+    const std::pair<std::string, std::string> b64[] = {{"", ""},         {"f", "Zg=="},         {"fo", "Zm8="},
+                                                        {"foo", "Zm9v"}, {"foob", "Zm9vYg=="},  {"fooba", "Zm9vYmE="},
+                                                        {"foobar", "Zm9vYmFy"}};
+    for (const auto& [plain, enc] : b64) {
+      std::string e, d;
+      io::detail::base64_encode(plain, e);
+      CHECK(e == enc);
+      CHECK(io::detail::base64_decode(enc, d));
+      CHECK(d == plain);
+    }
+    // Two streams back to back (a VTK header encoded apart from its data) decode as their concatenation.
+    std::string d;
+    CHECK(io::detail::base64_decode("Zg==Zm9vYmFy", d));
+    CHECK(d == "ffoobar");
+    CHECK(!io::detail::base64_decode("Zm9v*", d));
+    CHECK(!io::detail::base64_decode("Zm9vY", d));
+    // FNV-1a 64 reference values (Fowler–Noll–Vo test suite: "", "a", "foobar").
+    CHECK(io::detail::fnv1a64("") == 0xcbf29ce484222325ull);
+    CHECK(io::detail::fnv1a64("a") == 0xaf63dc4c8601ec8cull);
+    CHECK(io::detail::fnv1a64("foobar") == 0x85944171f73967e8ull);
+  }
+
+  TEST_CASE_TEMPLATE("io: .vtu round trip is bitwise for every field, both encodings", Dim, dim<2>, dim<3>) {
+    constexpr int D = Dim::value;
+    std::mt19937_64 rng(test_seed() + D);
+    const state_t<D> s = make_state<D>(57, 11, rng);
+    scratch tmp("vtu" + std::to_string(D));
+    for (const io::vtk_encoding enc : {io::vtk_encoding::base64, io::vtk_encoding::raw_appended}) {
+      for (const bool ghosts : {false, true}) {
+        for (const bool in_names : {false, true}) {
+          CAPTURE(int(enc));
+          CAPTURE(ghosts);
+          CAPTURE(in_names);
+          const fs::path p = tmp / "s.vtu";
+          io::vtu_options opt;
+          opt.encoding = enc;
+          opt.include_ghosts = ghosts;
+          opt.units_in_names = in_names;
+          opt.time = 0.1 + 0.2;  // not representable in few digits: the round trip must keep all 17
+          opt.step = 42;
+          io::write_vtu(p, s, opt);
+          const io::vtu_file f = io::read_vtu(p);
+          check_vtu_matches<D>(f, s, ghosts ? s.size() : s.n_real());
+          REQUIRE(f.time.has_value());
+          CHECK(*f.time == 0.1 + 0.2);
+          CHECK(f.step == 42);
+          CHECK(f.point_array("volume").units == (D == 2 ? "m^2" : "m^3"));
+          // One VTK_VERTEX cell per particle.
+          REQUIRE(f.cells.size() == 3);
+          const std::vector<std::int64_t> conn = f.cells[0].values<std::int64_t>();
+          const std::vector<std::int64_t> off = f.cells[1].values<std::int64_t>();
+          const std::vector<std::uint8_t> types = f.cells[2].values<std::uint8_t>();
+          REQUIRE(conn.size() == static_cast<std::size_t>(f.n_points));
+          bool ok = off.size() == conn.size() && types.size() == conn.size();
+          for (std::size_t i = 0; ok && i < conn.size(); ++i)
+            ok = conn[i] == static_cast<std::int64_t>(i) && off[i] == static_cast<std::int64_t>(i + 1) && types[i] == 1;
+          CHECK(ok);
+          // Restoring a state from the output gives back the same particles bitwise.
+          if (!in_names) {
+            state_t<D> r;
+            io::read_state(f, r);
+            state_t<D> want = s;
+            if (!ghosts) want.clear_ghosts();
+            // next_id is rebuilt as max id + 1 (removed particles after the last one are unknown to a .vtu).
+            CHECK(state_difference(r, want) == (r.next_id() == want.next_id() ? "" : "layout"));
+            CHECK(r.n_real() == s.n_real());
+          }
+        }
+      }
+    }
+  }
+
+  TEST_CASE("io: an empty state writes and reads back") {
+    scratch tmp("empty");
+    particle_state<2> s;
+    for (const io::vtk_encoding enc : {io::vtk_encoding::base64, io::vtk_encoding::raw_appended}) {
+      io::write_vtu(tmp / "e.vtu", s, {.encoding = enc});
+      const io::vtu_file f = io::read_vtu(tmp / "e.vtu");
+      CHECK(f.n_points == 0);
+      CHECK(f.points.bytes.empty());
+      CHECK(!f.time.has_value());
+    }
+  }
+
+  TEST_CASE("io: malformed, truncated and foreign .vtu files are refused naming the file") {
+    std::mt19937_64 rng(test_seed());
+    const state_t<3> s = make_state<3>(20, 0, rng);
+    scratch tmp("bad_vtu");
+    const fs::path good64 = tmp / "b64.vtu", goodraw = tmp / "raw.vtu", bad = tmp / "bad.vtu";
+    io::write_vtu(good64, s);
+    io::write_vtu(goodraw, s, {.encoding = io::vtk_encoding::raw_appended});
+    const std::string b64 = slurp(good64), raw = slurp(goodraw);
+
+    check_refused([&] { io::read_vtu(tmp / "missing.vtu"); }, {"missing.vtu", "cannot open"});
+    dump(bad, b64.substr(0, b64.size() / 2));
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "not closed"});
+    dump(bad, raw.substr(0, raw.size() - 40));
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "truncated"});
+    // A raw block cut inside the data, with the closing tags kept: the offsets run past the end.
+    const std::size_t us = raw.find('_', raw.find("<AppendedData"));
+    dump(bad, raw.substr(0, us + 100) + "\n</AppendedData>\n</VTKFile>\n");
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "truncated"});
+    std::string t = b64;
+    t.replace(t.find("format=\"binary\">") + 30, 1, "*");
+    dump(bad, t);
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "invalid base64"});
+    t = b64;
+    t.replace(t.find("header_type=\"UInt64\""), 20, "header_type=\"Int128\"");
+    dump(bad, t);
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "header_type"});
+    t = b64;
+    t.replace(t.find("NumberOfPoints=\"20\""), 19, "NumberOfPoints=\"21\"");
+    dump(bad, t);
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "tuples, expected 21"});
+    t = b64;
+    t.replace(t.find("UnstructuredGrid\""), 17, "PolyData\"");
+    dump(bad, t);
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "UnstructuredGrid"});
+    t = b64;
+    t.replace(t.find("</PointData>"), 12, "</PointDatum>");
+    dump(bad, t);
+    check_refused([&] { io::read_vtu(bad); }, {"bad.vtu", "does not match"});
+    check_refused([&] { io::read_vtu(good64).point_array("no_such"); }, {"b64.vtu", "no_such"});
+    // Output into a directory that does not exist.
+    check_refused([&] { io::write_vtu(tmp / "nowhere" / "x.vtu", s); }, {"nowhere", "does not exist"});
+  }
+
+  TEST_CASE("io: .pvd lists files with their times in order; restart keeps the earlier part") {
+    std::mt19937_64 rng(test_seed());
+    const state_t<2> s = make_state<2>(10, 3, rng);
+    scratch tmp("pvd");
+    io::vtk_series series(tmp / "out" / "case");
+    const double times[] = {0.0, 0.1, 0.25, 0.25, 1.0 / 3.0};
+    for (std::size_t k = 0; k < std::size(times); ++k) series.write(s, times[k], static_cast<index_t>(k));
+    const fs::path pvd = tmp / "out" / "case.pvd";
+    const std::vector<io::pvd_entry> e = io::read_pvd(pvd);
+    REQUIRE(e.size() == std::size(times));
+    for (std::size_t k = 0; k < e.size(); ++k) {
+      CAPTURE(k);
+      CHECK(e[k].time == times[k]);  // shortest round-trip text: exact
+      CHECK(e[k].file.generic_string() == "case_00000" + std::to_string(k) + ".vtu");
+      const io::vtu_file f = io::read_vtu(pvd.parent_path() / e[k].file);
+      CHECK(f.time == times[k]);
+      CHECK(f.step == static_cast<index_t>(k));
+    }
+    check_refused([&] { io::pvd_series(tmp / "x.pvd", e).add(0.2, tmp / "y.vtu"); }, {"x.pvd", "must not decrease"});
+    check_refused([&] { io::pvd_series(tmp / "x.pvd").add(std::nan(""), tmp / "y.vtu"); }, {"x.pvd", "not finite"});
+    // Restart at t = 0.25: later entries dropped, numbering continues.
+    io::vtk_series resumed(tmp / "out" / "case", {}, io::read_pvd(pvd, 0.25));
+    CHECK(resumed.files_written() == 4);
+    CHECK(resumed.write(s, 0.3).filename() == "case_000004.vtu");
+    const std::vector<io::pvd_entry> e2 = io::read_pvd(pvd);
+    REQUIRE(e2.size() == 5);
+    CHECK(e2.back().time == 0.3);
+    check_refused([&] { io::read_pvd(tmp / "out" / "case_000000.vtu"); }, {"case_000000.vtu", "Collection"});
+  }
+
+  TEST_CASE_TEMPLATE("io: meshio reads the base64 .vtu with the same values", Dim, dim<2>, dim<3>) {
+    constexpr int D = Dim::value;
+    const std::string py = python_with_meshio();
+    if (py.empty()) {
+      MESSAGE("meshio not found (apt-get install python3-meshio): meshio round trip skipped");
+      return;
+    }
+    std::mt19937_64 rng(test_seed() + 10 + D);
+    const state_t<D> s = make_state<D>(23, 4, rng);
+    scratch tmp("meshio" + std::to_string(D));
+    const fs::path vtu = tmp / "m.vtu", txt = tmp / "m.txt", script = tmp / "dump.py";
+    io::write_vtu(vtu, s, {.time = 0.5});
+    // The script prints every array as "name kind count" then one value per line: floats with repr
+    // (shortest round trip, so a bitwise comparison is possible), integers as integers.
+    dump(script,
+         "import sys, meshio\n"
+         "m = meshio.read(sys.argv[1])\n"
+         "out = open(sys.argv[2], 'w')\n"
+         "def put(name, a):\n"
+         "    a = a.ravel()\n"
+         "    kind = 'f' if a.dtype.kind == 'f' else 'i'\n"
+         "    out.write('%s %s %d\\n' % (name, kind, a.size))\n"
+         "    for v in a: out.write((repr(float(v)) if kind == 'f' else str(int(v))) + '\\n')\n"
+         "put('POINTS', m.points)\n"
+         "for name, a in m.point_data.items(): put(name, a)\n"
+         "out.write('CELLS %s %d\\n' % (m.cells[0].type, len(m.cells[0].data)))\n");
+    const std::string cmd = py + " " + script.string() + " " + vtu.string() + " " + txt.string();
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    const io::vtu_file ours = io::read_vtu(vtu);
+    std::ifstream in(txt);
+    std::string name, kind_s;
+    std::size_t count = 0;
+    index_t arrays = 0;
+    while (in >> name >> kind_s >> count) {
+      CAPTURE(name);
+      if (name == "CELLS") {
+        CHECK(kind_s == "vertex");
+        CHECK(count == static_cast<std::size_t>(s.n_real()));
+        continue;
+      }
+      const io::vtu_array& a = name == "POINTS" ? ours.points : ours.point_array(name);
+      REQUIRE(count == static_cast<std::size_t>(a.tuples * a.components));
+      index_t bad = 0;
+      if (kind_s == "f") {
+        const std::vector<double> want = a.values<double>();
+        for (std::size_t k = 0; k < count; ++k) {
+          std::string v;
+          in >> v;
+          double got = 0.0;
+          std::from_chars(v.data(), v.data() + v.size(), got);
+          bad += std::memcmp(&got, &want[k], sizeof got) != 0;
+        }
+      } else {
+        const std::vector<double> want = a.as_doubles();  // ids < 2^53 and small ints are exact as doubles
+        for (std::size_t k = 0; k < count; ++k) {
+          long double v = 0;
+          in >> v;
+          bad += static_cast<double>(v) != want[k];
+        }
+      }
+      CHECK(bad == 0);
+      ++arrays;
+    }
+    // Points plus every field but the position (which is the points).
+    CHECK(arrays == static_cast<index_t>(state_t<D>::fields::size));
+  }
+
+  TEST_CASE("io: CSV series writes units in the header, exact values, and refuses bad rows") {
+    scratch tmp("csv");
+    const fs::path p = tmp / "probes.csv";
+    {
+      io::csv_writer w(p, {{"time", "s"}, {"p_probe0", "Pa"}, {"u_probe0", "m/s"}});
+      w.row({0.0, 101325.0, -0.0});
+      w.row({0.1 + 0.2, 1.0 / 3.0, 5e-324});
+      check_refused([&] { w.row({1.0, 2.0}); }, {"probes.csv", "row 2 has 2 values", "3 columns"});
+      CHECK(w.rows() == 2);
+    }
+    {
+      io::csv_writer w(p, {{"time", "s"}, {"p_probe0", "Pa"}, {"u_probe0", "m/s"}}, io::csv_mode::append);
+      w.row({0.5, 2.0, std::numeric_limits<double>::infinity()});
+    }
+    std::ifstream in(p);
+    std::string line;
+    std::getline(in, line);
+    CHECK(line == "time [s],p_probe0 [Pa],u_probe0 [m/s]");
+    const double want[3][3] = {{0.0, 101325.0, -0.0},
+                               {0.1 + 0.2, 1.0 / 3.0, 5e-324},
+                               {0.5, 2.0, std::numeric_limits<double>::infinity()}};
+    for (const auto& row : want) {
+      REQUIRE(std::getline(in, line));
+      std::istringstream ls(line);
+      std::string cell;
+      for (const double w : row) {
+        REQUIRE(std::getline(ls, cell, ','));
+        double v = 0.0;
+        std::from_chars(cell.data(), cell.data() + cell.size(), v);
+        CHECK(std::memcmp(&v, &w, sizeof v) == 0);
+      }
+    }
+    CHECK(!std::getline(in, line));
+    check_refused([&] { io::csv_writer(p, {{"time", "s"}}, io::csv_mode::append); }, {"probes.csv", "header"});
+    check_refused([&] { io::csv_writer(tmp / "x.csv", {{"a,b", "s"}}); }, {"x.csv", "column 0"});
+    check_refused([&] { io::csv_writer(tmp / "x.csv", {}); }, {"x.csv", "no columns"});
+    check_refused([&] { io::csv_writer(tmp / "no" / "x.csv", {{"t", "s"}}); }, {"x.csv", "cannot open"});
+  }
+
+  TEST_CASE("io: progress prints a plain row per interval, or one line in place on a terminal") {
+    io::progress_info p;
+    p.end_time = 1.0;
+    p.dt = 1e-3;
+    p.ppe_iterations = 42;
+    p.particles = 1000;
+    std::ostringstream os;
+    io::progress_sink sink(os, 1.0, io::progress_mode::plain);
+    CHECK(!sink.terminal());
+    const double walls[] = {0.0, 0.5, 1.0, 1.5, 10.0};
+    int printed = 0;
+    for (int k = 0; k < 5; ++k) {
+      p.step = 10 * k;
+      p.time = 0.05 * k;
+      p.wall_seconds = walls[k];
+      printed += sink.update(p);
+    }
+    CHECK(printed == 3);  // at wall 0 (first), 1.0 and 10.0
+    std::istringstream lines(os.str());
+    std::string first, second, third;
+    std::getline(lines, first);
+    std::getline(lines, second);
+    std::getline(lines, third);
+    CHECK(first == "t = 0 s / 1 s, step 0, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA --");
+    // ETA from the first report: 1 s of wall for 0.1 s simulated, 0.9 s to go → 9 s.
+    CHECK(second == "t = 0.1 s / 1 s, step 20, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA 9.0s");
+    // 10 s for 0.2 s, 0.8 s to go → 40 s.
+    CHECK(third == "t = 0.2 s / 1 s, step 40, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA 40.0s");
+    CHECK(io::format_duration(3723.0) == "1h02m03s");
+    CHECK(io::format_duration(125.0) == "2m05s");
+
+    std::ostringstream term;
+    io::progress_sink tsink(term, 0.0, io::progress_mode::terminal);
+    p.wall_seconds = 0.0;
+    tsink.update(p);
+    p.wall_seconds = 1.0;
+    tsink.update(p);
+    CHECK(term.str().find('\n') == std::string::npos);
+    CHECK(term.str().find('\r') == 0);
+    tsink.finish();
+    CHECK(term.str().back() == '\n');
+    check_refused([&] { io::progress_sink(term, -1.0); }, {"interval", ">= 0"});
+  }
+
+  TEST_CASE("io: end summary accumulates and prints every counter") {
+    io::run_counters c;
+    c.record_step(100, 10, 1, 0, 2);
+    c.record_step(102, 30, 0, 3, 0);
+    c.record_step(104, 20, 1, 1, 1);
+    io::run_counters copy;
+    copy.from_values(c.values());
+    const io::run_summary s = c.summary(2.0);
+    CHECK(copy.values() == c.values());
+    CHECK(s.particles == 104);
+    CHECK(s.steps == 3);
+    CHECK(s.particle_steps == 306.0);
+    CHECK(s.particle_steps_per_second() == 153.0);
+    CHECK(s.ppe_iterations_mean == 20.0);
+    CHECK(s.ppe_iterations_max == 30);
+    CHECK(s.pinned_components == 2);
+    CHECK(s.guarded_particles == 4);
+    CHECK(s.excluded_particles == 3);
+    std::ostringstream os;
+    io::print_summary(os, s);
+    CHECK(os.str() ==
+          "mpskit run summary\n"
+          "  particles:                 104\n"
+          "  steps:                     3\n"
+          "  wall time:                 2.0s (2 s)\n"
+          "  particle-steps per second: 1.5300e+02\n"
+          "  PPE iterations:            mean 20.00, max 30\n"
+          "  pinned components:         2\n"
+          "  guarded particles:         4\n"
+          "  excluded particles:        3\n");
+  }
+}
+
+TEST_SUITE("checkpoint") {
+  TEST_CASE_TEMPLATE("checkpoint: round trip restores every field, the layout and the sections bitwise", Dim, dim<2>,
+                     dim<3>) {
+    constexpr int D = Dim::value;
+    std::mt19937_64 rng(test_seed() + 100 + D);
+    const state_t<D> s = make_state<D>(73, 9, rng);
+    scratch tmp("ckpt" + std::to_string(D));
+    io::checkpoint_sections out;
+    out.add("time", 0.1 + 0.2);
+    out.add("step", std::int64_t{1234});
+    out.add_doubles("controller", {1e-3, -0.0, 5e-324});
+    out.add_int64s("counters", {1, -2, std::numeric_limits<std::int64_t>::min()});
+    out.add_bytes("opaque", std::string("\0\1\2binary", 9));
+    const fs::path p = tmp / "run.ckpt";
+    io::save_checkpoint(p, s, out);
+
+    state_t<D> r = make_state<D>(5, 2, rng);  // loading replaces whatever the state held
+    io::checkpoint_sections in;
+    io::load_checkpoint(p, r, in);
+    CHECK(state_difference(r, s) == "");
+    CHECK(r.n_ghost() == 9);
+    CHECK(r.next_id() == s.next_id());
+    CHECK(in.names() == out.names());
+    const double t = in.get_double("time");
+    CHECK(t == 0.1 + 0.2);
+    CHECK(in.get_int64("step") == 1234);
+    const std::vector<double> ctl = in.get_doubles("controller"), want = {1e-3, -0.0, 5e-324};
+    CHECK(std::memcmp(ctl.data(), want.data(), sizeof(double) * 3) == 0);
+    CHECK(in.get_int64s("counters") == std::vector<std::int64_t>{1, -2, std::numeric_limits<std::int64_t>::min()});
+    CHECK(in.get_bytes("opaque") == std::string("\0\1\2binary", 9));
+    // Saving the restored state gives the same file, byte for byte.
+    io::save_checkpoint(tmp / "again.ckpt", r, in);
+    CHECK(slurp(tmp / "again.ckpt") == slurp(p));
+    // Sections: missing, wrong type, duplicate.
+    check_refused([&] { (void)in.get_double("nope"); }, {"run.ckpt", "no section 'nope'", "time, step"});
+    check_refused([&] { (void)in.get_double("step"); }, {"run.ckpt", "'step' holds int64"});
+    check_refused([&] { (void)in.get_double("controller"); }, {"holds 3 values, expected 1"});
+    check_refused([&] { out.add("time", 1.0); }, {"'time' added twice"});
+  }
+
+  TEST_CASE("checkpoint: a restarted run continues bitwise identically") {
+    std::mt19937_64 rng(test_seed() + 200);
+    scratch tmp("restart");
+    const state_t<2> init = make_state<2>(40, 0, rng);
+    auto fresh = [&] {
+      state_t<2> s = init;
+      // Finite, moderate values for the dynamics.
+      s.x() = s.x().unaryExpr([](double v) { return std::fmod(v, 3.0); });
+      s.u().setZero();
+      s.get<field::pressure>().setZero();
+      return s;
+    };
+    constexpr int n1 = 37, n2 = 41;
+    // Straight run.
+    state_t<2> a = fresh();
+    toy_controller ca;
+    double ta = 0.0;
+    std::int64_t sa = 0;
+    for (int k = 0; k < n1 + n2; ++k) toy_step(a, ca, ta, sa);
+    // Interrupted run: n1 steps, checkpoint, a fresh process (new objects), load, n2 steps.
+    {
+      state_t<2> b = fresh();
+      toy_controller cb;
+      double tb = 0.0;
+      std::int64_t sb = 0;
+      for (int k = 0; k < n1; ++k) toy_step(b, cb, tb, sb);
+      io::checkpoint_sections sec;
+      cb.save(sec);
+      sec.add("time", tb);
+      sec.add("step", sb);
+      io::save_checkpoint(tmp / "mid.ckpt", b, sec);
+    }
+    state_t<2> b;
+    toy_controller cb;
+    io::checkpoint_sections sec;
+    io::load_checkpoint(tmp / "mid.ckpt", b, sec);
+    cb.load(sec);
+    double tb = sec.get_double("time");
+    std::int64_t sb = sec.get_int64("step");
+    for (int k = 0; k < n2; ++k) toy_step(b, cb, tb, sb);
+    CHECK(state_difference(a, b) == "");
+    CHECK(std::memcmp(&ta, &tb, sizeof ta) == 0);
+    CHECK(ca.dt == cb.dt);
+    CHECK(sa == sb);
+  }
+
+  TEST_CASE("checkpoint: truncated, corrupted, foreign and mismatched files are refused") {
+    std::mt19937_64 rng(test_seed() + 300);
+    scratch tmp("bad_ckpt");
+    const state_t<2> s = make_state<2>(30, 5, rng);
+    io::checkpoint_sections sec;
+    sec.add("time", 1.5);
+    const fs::path good = tmp / "good.ckpt", bad = tmp / "bad.ckpt";
+    io::save_checkpoint(good, s, sec);
+    const std::string bytes = slurp(good);
+    state_t<2> r;
+    io::checkpoint_sections in;
+    auto load_bad = [&] { io::load_checkpoint(bad, r, in); };
+
+    check_refused([&] { io::load_checkpoint(tmp / "missing.ckpt", r, in); }, {"missing.ckpt", "cannot open"});
+    dump(bad, bytes.substr(0, bytes.size() - 1));
+    check_refused(load_bad, {"bad.ckpt", "truncated"});
+    dump(bad, bytes.substr(0, 20));
+    check_refused(load_bad, {"bad.ckpt", "truncated"});
+    dump(bad, bytes + "x");
+    check_refused(load_bad, {"bad.ckpt", "trailing bytes"});
+    // Flip one bit in each of 16 random payload bytes, one at a time: each is caught by the checksum.
+    std::uniform_int_distribution<std::size_t> where(32, bytes.size() - 1);
+    for (int k = 0; k < 16; ++k) {
+      std::string t = bytes;
+      const std::size_t at = where(rng);
+      CAPTURE(at);
+      t[at] = static_cast<char>(t[at] ^ (1 << (k % 8)));
+      dump(bad, t);
+      check_refused(load_bad, {"bad.ckpt", "checksum mismatch"});
+    }
+    std::string t = bytes;
+    t[0] = 'X';
+    dump(bad, t);
+    check_refused(load_bad, {"bad.ckpt", "wrong magic"});
+    t = bytes;
+    t[8] = 2;  // version 2
+    dump(bad, t);
+    check_refused(load_bad, {"bad.ckpt", "format version 2 is not supported"});
+    dump(bad, "hello");
+    check_refused(load_bad, {"bad.ckpt", "not an mpskit checkpoint"});
+    // Another dimension, another field list.
+    state_t<3> r3;
+    check_refused([&] { io::load_checkpoint(good, r3, in); }, {"good.ckpt", "2D scene", "3D state"});
+    particle_state<2, field_list<field::pressure>> fewer;
+    check_refused([&] { io::load_checkpoint(good, fewer, in); }, {"good.ckpt", "fields"});
+    particle_state<2, field_list<field::pressure, field::volume, field::normal, field::partner, tag16, level>> swapped;
+    check_refused([&] { io::load_checkpoint(good, swapped, in); }, {"good.ckpt", "'level'", "'tag16'"});
+    // A refused load leaves the target untouched.
+    CHECK(r.size() == 0);
+    check_refused([&] { io::save_checkpoint(tmp / "no" / "x.ckpt", s); }, {"x.ckpt", "does not exist"});
+  }
+}
