@@ -1,5 +1,5 @@
 // io/: base64 and checksum vectors, .vtu/.pvd round trips through the project's reader (both encodings,
-// 2D and 3D, every field shape) and through meshio when present, malformed files refused, CSV series,
+// 2D and 3D, every field shape) and through meshio and VTK's Python reader when present, malformed files refused, CSV series,
 // progress and summary formatting (suite "io"); checkpoint round trip, bitwise restart and refusal of
 // truncated, corrupted, wrong-version and mismatched checkpoints (suite "checkpoint").
 #include <doctest/doctest.h>
@@ -211,16 +211,108 @@ void check_vtu_matches(const io::vtu_file& f, const state_t<D>& s, index_t n) {
   });
 }
 
-/// A python3 that imports meshio, or "" (MPSKIT_PYTHON, then /usr/bin/python3, then python3 on PATH:
-/// Debian's python3-meshio installs for the system interpreter only).
-std::string python_with_meshio() {
+/// A python3 that can import `module`, or "" (MPSKIT_PYTHON, then /usr/bin/python3, then python3 on
+/// PATH: Debian's python3-meshio and python3-vtk9 install for the system interpreter only).
+std::string python_with(const std::string& module) {
   std::vector<std::string> candidates;
   if (const char* e = std::getenv("MPSKIT_PYTHON")) candidates.emplace_back(e);
   candidates.emplace_back("/usr/bin/python3");
   candidates.emplace_back("python3");
   for (const auto& py : candidates)
-    if (std::system((py + " -c \"import meshio\" >/dev/null 2>&1").c_str()) == 0) return py;
+    if (std::system((py + " -c \"import " + module + "\" >/dev/null 2>&1").c_str()) == 0) return py;
   return "";
+}
+
+// Python scripts that read a .vtu with an external reader and print every array as "name kind count"
+// then one value per line: floats with repr (shortest round trip, so the comparison is bitwise),
+// integers as integers; then "CELLS <type> <count>" and "TIME <repr>".
+constexpr const char* dump_put =
+    "import sys\n"
+    "out = open(sys.argv[2], 'w')\n"
+    "def put(name, a):\n"
+    "    a = a.ravel()\n"
+    "    kind = 'f' if a.dtype.kind == 'f' else 'i'\n"
+    "    out.write('%s %s %d\\n' % (name, kind, a.size))\n"
+    "    for v in a: out.write((repr(float(v)) if kind == 'f' else str(int(v))) + '\\n')\n";
+constexpr const char* meshio_dump =
+    "import meshio\n"
+    "m = meshio.read(sys.argv[1])\n"
+    "put('POINTS', m.points)\n"
+    "for name, a in m.point_data.items(): put(name, a)\n"
+    "out.write('CELLS %s %d\\n' % (m.cells[0].type, len(m.cells[0].data)))\n"
+    "out.write('TIME %s\\n' % repr(float(m.field_data['TimeValue'][0])))\n";
+constexpr const char* vtk_dump =
+    "from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader\n"
+    "from vtkmodules.util.numpy_support import vtk_to_numpy\n"
+    "errors = []\n"
+    "r = vtkXMLUnstructuredGridReader()\n"
+    "r.AddObserver('ErrorEvent', lambda o, e: errors.append(e))\n"
+    "r.SetFileName(sys.argv[1])\n"
+    "r.Update()\n"
+    "if errors: sys.exit('vtk reader reported an error')\n"
+    "g = r.GetOutput()\n"
+    "put('POINTS', vtk_to_numpy(g.GetPoints().GetData()))\n"
+    "pd = g.GetPointData()\n"
+    "for k in range(pd.GetNumberOfArrays()): put(pd.GetArray(k).GetName(), vtk_to_numpy(pd.GetArray(k)))\n"
+    "n = g.GetNumberOfCells()\n"
+    "out.write('CELLS %s %d\\n' % ('vertex' if all(g.GetCellType(i) == 1 for i in range(n)) else 'other', n))\n"
+    "out.write('TIME %s\\n' % repr(g.GetFieldData().GetArray('TimeValue').GetValue(0)))\n";
+
+/// Runs an external reader on `vtu` and checks every array it reports against our reader, bitwise.
+void check_external_reader(const std::string& py, const char* body, const fs::path& vtu, const scratch& tmp,
+                           index_t n_points, double time, index_t n_arrays) {
+  const fs::path txt = tmp / "dump.txt", script = tmp / "dump.py";
+  dump(script, std::string(dump_put) + body);
+  const std::string cmd = py + " " + script.string() + " " + vtu.string() + " " + txt.string();
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  const io::vtu_file ours = io::read_vtu(vtu);
+  std::ifstream in(txt);
+  std::string name, kind_s;
+  index_t arrays = 0;
+  bool cells = false, have_time = false;
+  while (in >> name >> kind_s) {
+    CAPTURE(name);
+    if (name == "TIME") {
+      double t = 0.0;
+      std::from_chars(kind_s.data(), kind_s.data() + kind_s.size(), t);
+      CHECK(t == time);
+      have_time = true;
+      continue;
+    }
+    std::size_t count = 0;
+    in >> count;
+    if (name == "CELLS") {
+      CHECK(kind_s == "vertex");
+      CHECK(count == static_cast<std::size_t>(n_points));
+      cells = true;
+      continue;
+    }
+    const io::vtu_array& a = name == "POINTS" ? ours.points : ours.point_array(name);
+    REQUIRE(count == static_cast<std::size_t>(a.tuples * a.components));
+    index_t bad = 0;
+    if (kind_s == "f") {
+      const std::vector<double> want = a.values<double>();
+      for (std::size_t k = 0; k < count; ++k) {
+        std::string v;
+        in >> v;
+        double got = 0.0;
+        std::from_chars(v.data(), v.data() + v.size(), got);
+        bad += std::memcmp(&got, &want[k], sizeof got) != 0;
+      }
+    } else {
+      const std::vector<double> want = a.as_doubles();  // ids < 2^53 and small ints are exact as doubles
+      for (std::size_t k = 0; k < count; ++k) {
+        long double v = 0;
+        in >> v;
+        bad += static_cast<double>(v) != want[k];
+      }
+    }
+    CHECK(bad == 0);
+    ++arrays;
+  }
+  CHECK(arrays == n_arrays);
+  CHECK(cells);
+  CHECK(have_time);
 }
 
 // A deterministic toy "scheme" for the restart test: explicit update of x, u, p with a controller whose
@@ -426,71 +518,29 @@ TEST_SUITE("io") {
     check_refused([&] { io::read_pvd(tmp / "out" / "case_000000.vtu"); }, {"case_000000.vtu", "Collection"});
   }
 
-  TEST_CASE_TEMPLATE("io: meshio reads the base64 .vtu with the same values", Dim, dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE("io: meshio and VTK's own reader read the .vtu with the same values", Dim, dim<2>, dim<3>) {
     constexpr int D = Dim::value;
-    const std::string py = python_with_meshio();
-    if (py.empty()) {
-      MESSAGE("meshio not found (apt-get install python3-meshio): meshio round trip skipped");
-      return;
-    }
     std::mt19937_64 rng(test_seed() + 10 + D);
     const state_t<D> s = make_state<D>(23, 4, rng);
-    scratch tmp("meshio" + std::to_string(D));
-    const fs::path vtu = tmp / "m.vtu", txt = tmp / "m.txt", script = tmp / "dump.py";
-    io::write_vtu(vtu, s, {.time = 0.5});
-    // The script prints every array as "name kind count" then one value per line: floats with repr
-    // (shortest round trip, so a bitwise comparison is possible), integers as integers.
-    dump(script,
-         "import sys, meshio\n"
-         "m = meshio.read(sys.argv[1])\n"
-         "out = open(sys.argv[2], 'w')\n"
-         "def put(name, a):\n"
-         "    a = a.ravel()\n"
-         "    kind = 'f' if a.dtype.kind == 'f' else 'i'\n"
-         "    out.write('%s %s %d\\n' % (name, kind, a.size))\n"
-         "    for v in a: out.write((repr(float(v)) if kind == 'f' else str(int(v))) + '\\n')\n"
-         "put('POINTS', m.points)\n"
-         "for name, a in m.point_data.items(): put(name, a)\n"
-         "out.write('CELLS %s %d\\n' % (m.cells[0].type, len(m.cells[0].data)))\n");
-    const std::string cmd = py + " " + script.string() + " " + vtu.string() + " " + txt.string();
-    REQUIRE(std::system(cmd.c_str()) == 0);
-    const io::vtu_file ours = io::read_vtu(vtu);
-    std::ifstream in(txt);
-    std::string name, kind_s;
-    std::size_t count = 0;
-    index_t arrays = 0;
-    while (in >> name >> kind_s >> count) {
-      CAPTURE(name);
-      if (name == "CELLS") {
-        CHECK(kind_s == "vertex");
-        CHECK(count == static_cast<std::size_t>(s.n_real()));
-        continue;
-      }
-      const io::vtu_array& a = name == "POINTS" ? ours.points : ours.point_array(name);
-      REQUIRE(count == static_cast<std::size_t>(a.tuples * a.components));
-      index_t bad = 0;
-      if (kind_s == "f") {
-        const std::vector<double> want = a.values<double>();
-        for (std::size_t k = 0; k < count; ++k) {
-          std::string v;
-          in >> v;
-          double got = 0.0;
-          std::from_chars(v.data(), v.data() + v.size(), got);
-          bad += std::memcmp(&got, &want[k], sizeof got) != 0;
-        }
-      } else {
-        const std::vector<double> want = a.as_doubles();  // ids < 2^53 and small ints are exact as doubles
-        for (std::size_t k = 0; k < count; ++k) {
-          long double v = 0;
-          in >> v;
-          bad += static_cast<double>(v) != want[k];
-        }
-      }
-      CHECK(bad == 0);
-      ++arrays;
-    }
+    scratch tmp("external" + std::to_string(D));
     // Points plus every field but the position (which is the points).
-    CHECK(arrays == static_cast<index_t>(state_t<D>::fields::size));
+    const index_t n_arrays = static_cast<index_t>(state_t<D>::fields::size);
+    const double t = 0.1 + 0.2;
+    if (const std::string py = python_with("meshio"); py.empty()) {
+      MESSAGE("meshio not found (apt-get install python3-meshio): meshio round trip skipped");
+    } else {
+      io::write_vtu(tmp / "m.vtu", s, {.time = t});
+      check_external_reader(py, meshio_dump, tmp / "m.vtu", tmp, s.n_real(), t, n_arrays);
+    }
+    if (const std::string py = python_with("vtkmodules.vtkIOXML"); py.empty()) {
+      MESSAGE("VTK's Python modules not found (apt-get install python3-vtk9): VTK reader round trip skipped");
+    } else {
+      for (const io::vtk_encoding enc : {io::vtk_encoding::base64, io::vtk_encoding::raw_appended}) {
+        CAPTURE(int(enc));
+        io::write_vtu(tmp / "v.vtu", s, {.encoding = enc, .include_ghosts = true, .time = t});
+        check_external_reader(py, vtk_dump, tmp / "v.vtu", tmp, s.size(), t, n_arrays);
+      }
+    }
   }
 
   TEST_CASE("io: CSV series writes units in the header, exact values, and refuses bad rows") {
