@@ -22,6 +22,7 @@
 #include "mpskit/io/checkpoint.hpp"
 #include "mpskit/io/concepts.hpp"
 #include "mpskit/io/csv.hpp"
+#include "mpskit/io/probes.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
 #include "mpskit/io/vtk_reader.hpp"
@@ -580,6 +581,115 @@ TEST_SUITE("io") {
     check_refused([&] { io::csv_writer(tmp / "x.csv", {{"a,b", "s"}}); }, {"x.csv", "column 0"});
     check_refused([&] { io::csv_writer(tmp / "x.csv", {}); }, {"x.csv", "no columns"});
     check_refused([&] { io::csv_writer(tmp / "no" / "x.csv", {{"t", "s"}}); }, {"x.csv", "cannot open"});
+  }
+
+  TEST_CASE_TEMPLATE("io: LSMPS type B probes are exact for linear fields, kernel probes for constants", Dim, dim<2>,
+                     dim<3>) {
+    constexpr int D = Dim::value;
+    std::mt19937_64 rng(test_seed() + 400 + D);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    // A jittered lattice of spacing l0 (jitter ±0.3 l0) filling [0, m l0)^D.
+    const double l0 = 0.01;
+    const int m = D == 2 ? 20 : 8;
+    const index_t n = D == 2 ? m * m : m * m * m;
+    particle_state<D, field_list<field::pressure>> s(n);
+    for (index_t i = 0; i < n; ++i) {
+      index_t r = i;
+      for (int a = 0; a < D; ++a, r /= m) s.x()(a, i) = (static_cast<double>(r % m) + 0.5 + 0.3 * U(rng)) * l0;
+    }
+    // Linear fields p = p0 + b·x, u = u0 + A x with random coefficients.
+    const double p0 = 1000.0 * U(rng);
+    vec<D> b, u0;
+    mat<D> A;
+    for (int a = 0; a < D; ++a) {
+      b[a] = 1e4 * U(rng);
+      u0[a] = U(rng);
+      for (int c = 0; c < D; ++c) A(a, c) = 100.0 * U(rng);
+    }
+    for (index_t i = 0; i < n; ++i) {
+      s.template get<field::pressure>()[i] = p0 + b.dot(s.x().col(i));
+      s.u().col(i) = u0 + A * s.x().col(i);
+    }
+    std::vector<io::probe_point<D>> probes;
+    for (int k = 0; k < 6; ++k) {
+      vec<D> q;
+      for (int a = 0; a < D; ++a) q[a] = (0.5 * m + 0.35 * m * U(rng)) * l0;  // inside, at random offsets
+      probes.push_back({"P" + std::to_string(k), q});
+    }
+    probes.push_back({"air", vec<D>::Constant(-10.0 * l0)});  // no particle within re: NaN
+    scratch tmp("probes" + std::to_string(D));
+    const double re = 3.1 * l0;
+    io::probe_set<decltype(s)> lin(tmp / "lin.csv", probes, re, 3);
+    io::probe_set<decltype(s), io::kernel_interpolation<D>> ker(tmp / "ker.csv", probes, re);
+    int rows = 0;
+    for (index_t step = 0; step < 10; ++step) rows += lin.sample(s, 0.01 * static_cast<double>(step), step);
+    CHECK(rows == 4);  // steps 0, 3, 6, 9
+    CHECK(lin.csv().rows() == 4);
+    const std::vector<double>& row = lin.last_row();
+    REQUIRE(row.size() == 2 + probes.size() * (1 + D));
+    CHECK(row[0] == 0.09);
+    CHECK(row[1] == 9.0);
+    for (std::size_t k = 0; k + 1 < probes.size(); ++k) {
+      CAPTURE(k);
+      const vec<D>& q = probes[k].x;
+      // Exact up to rounding: values are O(1e3) Pa and O(1) m/s; the moment matrices have rcond ~ 0.1
+      // (re = 3.1 l0, ~30 neighbours in 2D), so the error is a few ulps of the largest term.
+      CHECK(std::abs(row[2 + k * (1 + D)] - (p0 + b.dot(q))) < 1e-9);
+      const vec<D> uq = u0 + A * q;
+      for (int a = 0; a < D; ++a) CHECK(std::abs(row[3 + k * (1 + D) + static_cast<std::size_t>(a)] - uq[a]) < 1e-12);
+    }
+    for (std::size_t c = 2 + (probes.size() - 1) * (1 + D); c < row.size(); ++c) CHECK(std::isnan(row[c]));
+    // Kernel interpolation: exact for a constant field (weights sum to 1), not for the linear one.
+    s.template get<field::pressure>().setConstant(p0);
+    ker.sample(s, 0.0, 0);
+    for (std::size_t k = 0; k + 1 < probes.size(); ++k) CHECK(ker.last_row()[2 + k * (1 + D)] == doctest::Approx(p0).epsilon(1e-14));
+    std::ifstream in(tmp / "lin.csv");
+    std::string comment, header;
+    std::getline(in, comment);
+    std::getline(in, header);
+    CHECK(comment.find("LSMPS type B, first order") != std::string::npos);
+    CHECK(header.starts_with("time [s],step [1],P0.p [Pa],P0.u_x [m/s],P0.u_y [m/s]"));
+    check_refused([&] { io::probe_set<decltype(s)>(tmp / "x.csv", probes, 0.0); }, {"x.csv", "re = 0"});
+    check_refused([&] { io::probe_set<decltype(s)>(tmp / "x.csv", probes, re, 0); }, {"x.csv", "every = 0"});
+  }
+
+  TEST_CASE("io: integrals and surge front on a lattice match closed forms") {
+    // m × m fluid particles at (i + 1/2) l0, (j + 1/2) l0 moving with u = (1, 2): closed forms below.
+    const int m = 10;
+    const double l0 = 0.02, rho = 1000.0, g = 9.81;
+    particle_state<2> s(m * m + 3);
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i) {
+        const index_t k = j * m + i;
+        s.x().col(k) << (i + 0.5) * l0, (j + 0.5) * l0;
+        s.u().col(k) << 1.0, 2.0;
+      }
+    for (index_t k = m * m; k < s.size(); ++k) {
+      s.kinds()[static_cast<std::size_t>(k)] = kind::wall;  // walls are not counted by default
+      s.x().col(k) << 100.0, 100.0;
+    }
+    const io::flow_integrals r = io::integrals(s, rho, vec<2>(0.0, -g), l0 * l0);
+    const double V = m * m * l0 * l0, M = rho * V;
+    CHECK(r.particles == m * m);
+    CHECK(r.volume == doctest::Approx(V).epsilon(1e-13));
+    CHECK(r.mass == doctest::Approx(M).epsilon(1e-13));
+    CHECK(r.kinetic_energy == doctest::Approx(0.5 * M * 5.0).epsilon(1e-13));
+    // Σ y = m Σ_j (j + 1/2) l0 = m · m²/2 · l0 → E_p = ρ l0² g · m³ l0 / 2 = M g (m l0)/2 (centre of mass height).
+    CHECK(r.potential_energy == doctest::Approx(M * g * 0.5 * m * l0).epsilon(1e-13));
+    CHECK(io::front_position(s, 0) == doctest::Approx((m - 0.5) * l0).epsilon(1e-15));
+    CHECK(io::front_position(s, 0, 0.5 * l0) == doctest::Approx(m * l0).epsilon(1e-15));
+    CHECK(io::front_position(s, 0, 0.0, io::mask_of(kind::wall)) == 100.0);
+    CHECK(std::isnan(io::front_position(s, 0, 0.0, io::mask_of(kind::body))));
+    check_refused([&] { io::front_position(s, 2); }, {"axis = 2"});
+    check_refused([&] { io::integrals(s, -1.0, vec<2>(0.0, -g), l0 * l0); }, {"rho = -1"});
+    check_refused([&] { io::integrals(s, rho, vec<2>(0.0, -g)); }, {"particle_volume = 0"});
+    scratch tmp("integrals");
+    io::csv_writer w(tmp / "i.csv", io::flow_integrals::columns(2));
+    w.row(r.values(0.5));
+    std::ifstream in(tmp / "i.csv");
+    std::string header;
+    std::getline(in, header);
+    CHECK(header == "time [s],particles [1],volume [m^2],mass [kg/m],kinetic_energy [J/m],potential_energy [J/m]");
   }
 
   TEST_CASE("io: progress prints a plain row per interval, or one line in place on a terminal") {

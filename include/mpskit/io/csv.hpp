@@ -31,12 +31,15 @@ enum class csv_mode : std::uint8_t {
   append     ///< continue an existing file (restart): its header must be the same; created when missing
 };
 
-/// \brief A CSV time-series writer: header "name [unit],..." then rows of doubles written with the
-/// shortest representation that reads back to the same double ("nan", "inf" for non-finite values).
+/// \brief A CSV time-series writer: optional comment lines ("# ..."), the header "name [unit],..." then
+/// rows of doubles written with the shortest representation that reads back to the same double ("nan",
+/// "inf" for non-finite values).
 class csv_writer {
  public:
-  /// Opens `path` with these columns; throws mpskit::error naming the path or the bad column.
-  csv_writer(std::filesystem::path path, std::vector<csv_column> columns, csv_mode mode = csv_mode::truncate)
+  /// Opens `path` with these columns, after `comments` (each written as "# <line>"; on append, the
+  /// existing file's comment lines are skipped); throws mpskit::error naming the path or the bad column.
+  csv_writer(std::filesystem::path path, std::vector<csv_column> columns, csv_mode mode = csv_mode::truncate,
+             const std::vector<std::string>& comments = {})
       : path_(std::move(path)), columns_(std::move(columns)) {
     if (columns_.empty()) fail("csv_writer '", path_.string(), "': no columns");
     std::string header;
@@ -52,7 +55,8 @@ class csv_writer {
     if (mode == csv_mode::append && std::filesystem::exists(path_)) {
       std::ifstream in(path_);
       std::string first;
-      std::getline(in, first);
+      while (std::getline(in, first) && first.starts_with("#")) {
+      }
       if (first != header)
         fail("csv_writer '", path_.string(), "': cannot append: its header \"", first, "\" differs from \"", header, "\"");
       write_header = false;
@@ -60,6 +64,11 @@ class csv_writer {
     out_.open(path_, mode == csv_mode::append ? std::ios::app : std::ios::trunc);
     if (!out_) fail("csv_writer: cannot open '", path_.string(), "' for writing");
     if (write_header) {
+      for (const auto& c : comments) {
+        if (c.find_first_of("\n\r") != std::string::npos)
+          fail("csv_writer '", path_.string(), "': a comment line contains a line break");
+        out_ << "# " << c << '\n';
+      }
       out_ << header << '\n';
       out_.flush();
       check();
