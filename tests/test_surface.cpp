@@ -300,6 +300,41 @@ TEST_SUITE("surface") {
     CHECK(wrong == 0);
   }
 
+  TEST_CASE("surface: detection runs on wall particles (dry wall flagged, wet wall not)") {
+    // A periodic strip: layers 0–1 dummy, layer 2 wall, layers 3–7 fluid over columns 0–7 only.
+    // Candidates are fluid and wall particles (bmmr.md §2.7 [EXT]: dry walls get P = 0).
+    const int m = 16;
+    block<2> full(m, 8, 0.0, 0);
+    std::vector<index_t> keep;
+    for (index_t i = 0; i < full.n(); ++i) {
+      const int col = static_cast<int>(std::lround(full.x(0, i) / l0)), lay = static_cast<int>(std::lround(full.x(1, i) / l0));
+      if (lay <= 2 || col < 8) keep.push_back(i);
+    }
+    block<2> b = full;
+    b.x.resize(2, static_cast<index_t>(keep.size()));
+    for (std::size_t k = 0; k < keep.size(); ++k) b.x.col(static_cast<index_t>(k)) = full.x.col(keep[k]);
+    b.build();
+    std::vector<std::uint8_t> cand(keep.size());
+    for (index_t i = 0; i < b.n(); ++i) cand[static_cast<std::size_t>(i)] = std::lround(b.x(1, i) / l0) >= 2;
+    for (const bool use_npcd : {true, false}) {
+      CAPTURE(use_npcd);
+      std::vector<flag::type> flags(keep.size(), 0);
+      if (use_npcd) surface::npcd{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags);
+      else surface::pnd_threshold{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags);
+      index_t dry = 0, wet = 0, dummies = 0;
+      for (index_t i = 0; i < b.n(); ++i) {
+        const long col = std::lround(b.x(0, i) / l0), lay = std::lround(b.x(1, i) / l0);
+        const bool f = is_surface(flags[static_cast<std::size_t>(i)]);
+        if (lay < 2) dummies += f;
+        if (lay == 2 && col >= 10 && col <= 13) dry += f;  // ≥ 3 l0 from any fluid particle
+        if (lay == 2 && col >= 2 && col <= 5) wet += f;    // under the fluid, full support
+      }
+      CHECK(dry == 4);
+      CHECK(wet == 0);
+      CHECK(dummies == 0);  // not candidates
+    }
+  }
+
   TEST_CASE("surface: bad parameters and sizes are refused") {
     CHECK_THROWS_AS(surface::pnd_threshold({1.5}), mpskit::error);
     CHECK_THROWS_AS(surface::neighbour_count({0.0}), mpskit::error);
