@@ -11,6 +11,7 @@
 #include <random>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/exec.hpp"
@@ -63,6 +64,8 @@ static_assert(surface::SurfaceDetector<surface::pnd_threshold, op2> &&
               surface::SurfaceDetector<detector_archetype, op2> && !surface::SurfaceDetector<int, op2>);
 static_assert(regularize::CollisionModel<regularize::collision, 2> &&
               regularize::CollisionModel<regularize::collision, 3> && !regularize::CollisionModel<int, 2>);
+static_assert(std::is_same_v<surface::npcd::fields, field_list<>> &&
+              std::is_same_v<regularize::collision::fields, field_list<>>);  // core fields only
 static_assert(regularize::ShiftingModel<regularize::fickian_shifting, op2> &&
               regularize::ShiftingModel<regularize::fickian_shifting, op3> &&
               !regularize::ShiftingModel<int, op2>);

@@ -19,6 +19,7 @@
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/regularize/concepts.hpp"
 #include "mpskit/search/neighbour_list.hpp"
@@ -49,6 +50,7 @@ struct collision_report {
 /// Lee et al. (2011) collision model, seed 001 eq. 13.
 class collision final {
  public:
+  using fields = field_list<>;  ///< fields beyond the core: none (uses position, velocity)
   using params_type = collision_params;
   /// Validates p.
   explicit collision(const params_type& p) : p_(p) { p_.validate(); }

@@ -20,6 +20,7 @@
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
 #include "mpskit/core/kinds.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/regularize/concepts.hpp"
@@ -52,6 +53,7 @@ struct shift_report {
 /// Fickian shifting of inner fluid particles, seed 001 eqs. 9–12.
 class fickian_shifting final {
  public:
+  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
   using params_type = fickian_shifting_params;
   /// Validates p.
   explicit fickian_shifting(const params_type& p = {}) : p_(p) { p_.validate(); }

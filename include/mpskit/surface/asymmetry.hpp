@@ -18,6 +18,7 @@
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
 #include "mpskit/core/kinds.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/kernel/concepts.hpp"
@@ -74,6 +75,7 @@ struct asymmetry_params {
 /// |F_i| > α_F |F|⁰ (seed 004 eqs. 14–15).
 class asymmetry final {
  public:
+  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
   using params_type = asymmetry_params;
   /// Validates p.
   explicit asymmetry(const params_type& p = {}) : p_(p) { p_.validate(); }

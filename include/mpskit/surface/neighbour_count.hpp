@@ -10,6 +10,7 @@
 
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
 #include "mpskit/core/kinds.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/kernel/reference_lattice.hpp"
@@ -28,7 +29,7 @@ struct neighbour_count_params {
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("neighbour_count_params");
-    v.require(beta > 0.0 && beta <= 1.0, "beta", mpskit::detail::concat("= ", beta, ": must be in (0, 1]"));
+    v.require(beta > 0.0 && beta <= 1.0, "beta", mpskit::detail::concat("is ", beta, "; must be in (0, 1]"));
     v.throw_if_any();
   }
 };
@@ -36,6 +37,7 @@ struct neighbour_count_params {
 /// N_i < β N0.
 class neighbour_count final {
  public:
+  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
   using params_type = neighbour_count_params;
   /// Validates p.
   explicit neighbour_count(const params_type& p = {}) : p_(p) { p_.validate(); }

@@ -16,6 +16,7 @@
 
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
 #include "mpskit/core/kinds.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/search/neighbour_list.hpp"
@@ -34,10 +35,10 @@ struct npcd_params {
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("npcd_params");
-    v.require(beta_f > 0.0 && beta_f <= 1.0, "beta_f", mpskit::detail::concat("= ", beta_f, ": must be in (0, 1]"));
+    v.require(beta_f > 0.0 && beta_f <= 1.0, "beta_f", mpskit::detail::concat("is ", beta_f, "; must be in (0, 1]"));
     v.positive("rho_f", rho_f);
     v.require(max_neighbours >= 0, "max_neighbours",
-              mpskit::detail::concat("= ", max_neighbours, ": must be an integer >= 0"));
+              mpskit::detail::concat("is ", max_neighbours, "; must be an integer >= 0"));
     v.throw_if_any();
   }
 };
@@ -52,6 +53,7 @@ struct npcd_measure {
 /// NPCD free-surface detection (seed 001 eqs. 14–16, "or" reading).
 class npcd final {
  public:
+  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
   using params_type = npcd_params;
   /// Validates p.
   explicit npcd(const params_type& p = {}) : p_(p) { p_.validate(); }

@@ -9,6 +9,7 @@
 
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/exec.hpp"
+#include "mpskit/core/fields.hpp"
 #include "mpskit/core/kinds.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/search/neighbour_list.hpp"
@@ -25,7 +26,7 @@ struct pnd_threshold_params {
   void validate() const {
     validator v("pnd_threshold_params");
     v.require(alpha_d > 0.0 && alpha_d <= 1.0, "alpha_d",
-              mpskit::detail::concat("= ", alpha_d, ": must be in (0, 1]"));
+              mpskit::detail::concat("is ", alpha_d, "; must be in (0, 1]"));
     v.throw_if_any();
   }
 };
@@ -33,6 +34,7 @@ struct pnd_threshold_params {
 /// n_i < α_d n0 (Tanaka 2018 eq. 20; n0 of the chosen support, op::mps).
 class pnd_threshold final {
  public:
+  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
   using params_type = pnd_threshold_params;
   /// Validates p.
   explicit pnd_threshold(const params_type& p = {}) : p_(p) { p_.validate(); }
