@@ -45,7 +45,8 @@ struct detector_archetype {
   void detect(E, const points<Op::dim>&, const search::neighbour_list<Op::dim>&, const Op&, const P&,
               std::span<const std::uint8_t>, std::vector<flag::type>&) const {}
   template <class Op, class P>
-  double value(const points<Op::dim>&, const search::neighbour_list<Op::dim>&, const Op&, const P&, index_t) const {
+  double value(const points<Op::dim>&, const search::neighbour_list<Op::dim>&, const Op&, const P&,
+               index_t) const {
     return 0.0;
   }
   template <class Op>
@@ -57,10 +58,12 @@ struct detector_archetype {
 
 using op2 = op::mps<2>;
 using op3 = op::mps<3>;
-static_assert(surface::ClassicSupports<op2> && surface::ClassicSupports<op3> && !surface::ClassicSupports<int>);
+static_assert(surface::ClassicSupports<op2> && surface::ClassicSupports<op3> &&
+              !surface::ClassicSupports<int>);
 static_assert(surface::SurfaceDetector<surface::pnd_threshold, op2> &&
               surface::SurfaceDetector<surface::neighbour_count, op3> &&
-              surface::SurfaceDetector<surface::npcd, op2> && surface::SurfaceDetector<surface::asymmetry, op3> &&
+              surface::SurfaceDetector<surface::npcd, op2> &&
+              surface::SurfaceDetector<surface::asymmetry, op3> &&
               surface::SurfaceDetector<detector_archetype, op2> && !surface::SurfaceDetector<int, op2>);
 static_assert(regularize::CollisionModel<regularize::collision, 2> &&
               regularize::CollisionModel<regularize::collision, 3> && !regularize::CollisionModel<int, 2>);
@@ -129,7 +132,8 @@ template <int D>
 std::array<index_t, 3> flagged_by_depth(const block<D>& b, const std::vector<flag::type>& flags) {
   std::array<index_t, 3> c{};
   for (index_t i = 0; i < b.n(); ++i)
-    if (is_surface(flags[static_cast<std::size_t>(i)])) ++c[static_cast<std::size_t>(std::min(b.depth[static_cast<std::size_t>(i)], 2))];
+    if (is_surface(flags[static_cast<std::size_t>(i)]))
+      ++c[static_cast<std::size_t>(std::min(b.depth[static_cast<std::size_t>(i)], 2))];
   return c;
 }
 
@@ -143,18 +147,18 @@ void check_flat_surface(double jitter, std::uint64_t seed, bool with_pnd = true)
   const surface::neighbour_count cnt;
   const surface::npcd np;
   const surface::asymmetry asy;
-  const std::array<std::array<index_t, 3>, 4> got = {flagged_by_depth(b, detect_all(pnd, b)),
-                                                     flagged_by_depth(b, detect_all(cnt, b)),
-                                                     flagged_by_depth(b, detect_all(np, b)),
-                                                     flagged_by_depth(b, detect_all(asy, b))};
+  const std::array<std::array<index_t, 3>, 4> got = {
+      flagged_by_depth(b, detect_all(pnd, b)), flagged_by_depth(b, detect_all(cnt, b)),
+      flagged_by_depth(b, detect_all(np, b)), flagged_by_depth(b, detect_all(asy, b))};
   const std::string names[] = {"pnd_threshold", "neighbour_count", "npcd", "asymmetry"};
   for (std::size_t k = with_pnd ? 0 : 1; k < 4; ++k) {
     CAPTURE(names[k]);
     CAPTURE(jitter);
-    MESSAGE(D << "D " << names[k] << " jitter " << jitter << ": flagged at depth 0/1/>=2 = " << got[k][0] << "/"
-              << got[k][1] << "/" << got[k][2] << " of " << surface_layers << " surface-layer particles");
-    CHECK(got[k][0] == surface_layers);  // every particle of both free layers
-    CHECK(got[k][2] == 0);               // nothing two or more layers deep
+    MESSAGE(D << "D " << names[k] << " jitter " << jitter << ": flagged at depth 0/1/>=2 = " << got[k][0]
+              << "/" << got[k][1] << "/" << got[k][2] << " of " << surface_layers
+              << " surface-layer particles");
+    CHECK(got[k][0] == surface_layers);         // every particle of both free layers
+    CHECK(got[k][2] == 0);                      // nothing two or more layers deep
     if (jitter <= 0.01) CHECK(got[k][1] == 0);  // exactly the two free layers
   }
 }
@@ -221,7 +225,7 @@ TEST_SUITE("surface") {
     // And the N ≤ 4 clause alone: a particle with 4 neighbours in a symmetric cross has σ = 0 but is flagged.
     points<2> y(2, 5);
     y << 0.0, l0, -l0, 0.0, 0.0,  //
-        0.0, 0.0, 0.0, l0, -l0;     // i at the origin, four neighbours at distance l0
+        0.0, 0.0, 0.0, l0, -l0;   // i at the origin, four neighbours at distance l0
     search::neighbour_list<2> nl;
     const op2 op({l0, 2.1, 3.1});
     nl.build(exec::seq{}, y, search::uniform_radius{op.re_large()});
@@ -252,7 +256,8 @@ TEST_SUITE("surface") {
     const surface::asymmetry asy;
     for (index_t i = 0; i < b.n(); ++i)
       if (b.depth[static_cast<std::size_t>(i)] == 0)
-        CHECK(asy.value(b.x, b.nl, b.op, surface::all_participate{}, i) == doctest::Approx(F2).epsilon(1e-12));
+        CHECK(asy.value(b.x, b.nl, b.op, surface::all_participate{}, i) ==
+              doctest::Approx(F2).epsilon(1e-12));
     // The reference follows the operator's kernel: Zhang–Wan W = re/(0.85 r + 0.15 re) − 1 (seed 004 eq. 3).
     const auto Wz = [&](double r) { return re / (0.85 * r + 0.15 * re) - 1.0; };
     const double n0_z = 4 * Wz(1) + 4 * Wz(s2) + 4 * Wz(2);
@@ -275,8 +280,11 @@ TEST_SUITE("surface") {
     const std::vector<flag::type> all = detect_all(surface::npcd{}, b);
     bool ok = true;
     for (std::size_t i = 0; i < n; ++i) {
-      if (!cand[i]) ok &= flags[i] == before[i];
-      else ok &= (flags[i] & ~flag::surface) == (before[i] & ~flag::surface) && is_surface(flags[i]) == is_surface(all[i]);
+      if (!cand[i])
+        ok &= flags[i] == before[i];
+      else
+        ok &= (flags[i] & ~flag::surface) == (before[i] & ~flag::surface) &&
+              is_surface(flags[i]) == is_surface(all[i]);
     }
     CHECK(ok);
   }
@@ -286,7 +294,8 @@ TEST_SUITE("surface") {
     b.build();
     // Only the lower 5 layers participate: the 5th layer (index 4) becomes a flat surface for the lower part.
     std::vector<int> layer(static_cast<std::size_t>(b.n()));
-    for (index_t i = 0; i < b.n(); ++i) layer[static_cast<std::size_t>(i)] = static_cast<int>(std::lround(b.x(1, i) / l0));
+    for (index_t i = 0; i < b.n(); ++i)
+      layer[static_cast<std::size_t>(i)] = static_cast<int>(std::lround(b.x(1, i) / l0));
     const auto lower = [&](index_t j) { return layer[static_cast<std::size_t>(j)] < 5; };
     std::vector<flag::type> flags(static_cast<std::size_t>(b.n()), 0);
     std::vector<std::uint8_t> cand(static_cast<std::size_t>(b.n()));
@@ -310,7 +319,8 @@ TEST_SUITE("surface") {
     block<2> full(m, 8, 0.0, 0);
     std::vector<index_t> keep;
     for (index_t i = 0; i < full.n(); ++i) {
-      const int col = static_cast<int>(std::lround(full.x(0, i) / l0)), lay = static_cast<int>(std::lround(full.x(1, i) / l0));
+      const int col = static_cast<int>(std::lround(full.x(0, i) / l0)),
+                lay = static_cast<int>(std::lround(full.x(1, i) / l0));
       if (lay <= 2 || col < 8) keep.push_back(i);
     }
     block<2> b = full;
@@ -322,8 +332,11 @@ TEST_SUITE("surface") {
     for (const bool use_npcd : {true, false}) {
       CAPTURE(use_npcd);
       std::vector<flag::type> flags(keep.size(), 0);
-      if (use_npcd) surface::npcd{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags);
-      else surface::pnd_threshold{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags);
+      if (use_npcd)
+        surface::npcd{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags);
+      else
+        surface::pnd_threshold{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand,
+                                        flags);
       index_t dry = 0, wet = 0, dummies = 0;
       for (index_t i = 0; i < b.n(); ++i) {
         const long col = std::lround(b.x(0, i) / l0), lay = std::lround(b.x(1, i) / l0);
@@ -356,8 +369,9 @@ TEST_SUITE("surface") {
     b.build();
     std::vector<flag::type> flags(3);
     std::vector<std::uint8_t> cand(static_cast<std::size_t>(b.n()), 1);
-    CHECK_THROWS_AS(surface::npcd{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags),
-                    mpskit::error);
+    CHECK_THROWS_AS(
+        surface::npcd{}.detect(exec::seq{}, b.x, b.nl, b.op, surface::all_participate{}, cand, flags),
+        mpskit::error);
   }
 
   TEST_CASE("surface: detectors, collision and shifting are bitwise identical for 1 and 2 threads") {
@@ -370,10 +384,13 @@ TEST_SUITE("surface") {
       F.assign(4, std::vector<flag::type>(static_cast<std::size_t>(b.n()), 0));
       V.assign(4, Eigen::VectorXd());
       std::vector<std::uint8_t> cand(static_cast<std::size_t>(b.n()), 1);
-      surface::pnd_threshold{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[0], &V[0]);
-      surface::neighbour_count{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[1], &V[1]);
+      surface::pnd_threshold{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[0],
+                                      &V[0]);
+      surface::neighbour_count{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[1],
+                                        &V[1]);
       surface::npcd{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[2], &V[2]);
-      surface::asymmetry{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[3], &V[3]);
+      surface::asymmetry{}.detect(exec::par{}, b.x, b.nl, b.op, surface::all_participate{}, cand, F[3],
+                                  &V[3]);
     };
     std::mt19937_64 rng(seed + 1);
     std::normal_distribution<double> N(0.0, 1.0);
@@ -387,17 +404,22 @@ TEST_SUITE("surface") {
     points<3> du1, du2, dr1, dr2;
     omp_set_num_threads(1);
     run_detectors(F1, V1);
-    const regularize::collision_report c1 = col.velocity_change(exec::par{}, b.x, u, b.nl, regularize::every_particle{}, fluid, du1);
-    const regularize::shift_report s1 = sh.displacement(exec::par{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, F1[2], dr1);
+    const regularize::collision_report c1 =
+        col.velocity_change(exec::par{}, b.x, u, b.nl, regularize::every_particle{}, fluid, du1);
+    const regularize::shift_report s1 =
+        sh.displacement(exec::par{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, F1[2], dr1);
     omp_set_num_threads(2);
     run_detectors(F2, V2);
-    const regularize::collision_report c2 = col.velocity_change(exec::par{}, b.x, u, b.nl, regularize::every_particle{}, fluid, du2);
-    const regularize::shift_report s2 = sh.displacement(exec::par{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, F2[2], dr2);
+    const regularize::collision_report c2 =
+        col.velocity_change(exec::par{}, b.x, u, b.nl, regularize::every_particle{}, fluid, du2);
+    const regularize::shift_report s2 =
+        sh.displacement(exec::par{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, F2[2], dr2);
     for (std::size_t k = 0; k < 4; ++k) {
       CHECK(F1[k] == F2[k]);
       CHECK((V1[k].array() == V2[k].array() || (V1[k].array().isNaN() && V2[k].array().isNaN())).all());
     }
-    CHECK(c1.pairs > 0);  // jitter ±0.1 l0 with unit random velocities: some pairs closer than 0.85 l0 approach
+    CHECK(c1.pairs >
+          0);  // jitter ±0.1 l0 with unit random velocities: some pairs closer than 0.85 l0 approach
     CHECK((du1.array() == du2.array()).all());
     CHECK(c1.pairs == c2.pairs);
     CHECK(c1.max_dv == c2.max_dv);
@@ -423,8 +445,8 @@ TEST_SUITE("regularize") {
     const regularize::collision col({l0, 0.85, 0.2});
     const double dt = 1e-3;
     const points<2> x0 = x;
-    const regularize::collision_report rep = col.apply(exec::seq{}, x, u, nl, regularize::every_particle{},
-                                                       regularize::every_particle{}, dt);
+    const regularize::collision_report rep =
+        col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, dt);
     CHECK(rep.pairs == 2);
     CHECK(u(0, 0) == doctest::Approx(v - 1.2 * v).epsilon(1e-15));
     CHECK(u(0, 1) == doctest::Approx(-v + 1.2 * v).epsilon(1e-15));
@@ -477,19 +499,23 @@ TEST_SUITE("regularize") {
     u << -1.0, 1.0, 0.0, 0.0;
     nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
     points<2> u0 = u;
-    CHECK(col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, 1e-3).pairs == 0);
+    CHECK(col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, 1e-3)
+              .pairs == 0);
     CHECK((u.array() == u0.array()).all());
     // Approaching but at 0.9 l0 > α1 l0.
     x << 0.0, 0.9 * l0, 0.0, 0.0;
     u << 1.0, -1.0, 0.0, 0.0;
     nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
     u0 = u;
-    CHECK(col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, 1e-3).pairs == 0);
+    CHECK(col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, 1e-3)
+              .pairs == 0);
     CHECK((u.array() == u0.array()).all());
     // Approaching at 0.5 l0 but neither counts as a partner.
     x << 0.0, 0.5 * l0, 0.0, 0.0;
     nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
-    CHECK(col.apply(exec::seq{}, x, u, nl, [](index_t) { return false; }, regularize::every_particle{}, 1e-3).pairs == 0);
+    CHECK(col.apply(
+                 exec::seq{}, x, u, nl, [](index_t) { return false; }, regularize::every_particle{}, 1e-3)
+              .pairs == 0);
     CHECK((u.array() == u0.array()).all());
     // A wall neighbour (immovable, α3 = 1): the fluid particle bounces with restitution α2 against the
     // wall's velocity, the wall keeps its velocity and position.
@@ -502,7 +528,8 @@ TEST_SUITE("regularize") {
     const vec<2> n = (x.col(1) - x.col(0)).normalized();
     const double vn0 = (u0.col(1) - u0.col(0)).dot(n);
     REQUIRE(vn0 < 0.0);
-    const regularize::collision_report rep = col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, fluid, 1e-3);
+    const regularize::collision_report rep =
+        col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, fluid, 1e-3);
     CHECK(rep.pairs == 1);
     CHECK((u.col(1).array() == u0.col(1).array()).all());
     CHECK((x.col(1).array() == x0.col(1).array()).all());
@@ -544,16 +571,17 @@ TEST_SUITE("regularize") {
     std::vector<flag::type> f2(static_cast<std::size_t>(b2.n()), 0), f3(static_cast<std::size_t>(b3.n()), 0);
     points<2> dr2;
     points<3> dr3;
-    const regularize::shift_report r2 =
-        sh.displacement(exec::seq{}, b2.x, b2.nl, b2.op, regularize::every_particle{}, regularize::every_particle{}, f2, dr2);
-    const regularize::shift_report r3 =
-        sh.displacement(exec::seq{}, b3.x, b3.nl, b3.op, regularize::every_particle{}, regularize::every_particle{}, f3, dr3);
+    const regularize::shift_report r2 = sh.displacement(
+        exec::seq{}, b2.x, b2.nl, b2.op, regularize::every_particle{}, regularize::every_particle{}, f2, dr2);
+    const regularize::shift_report r3 = sh.displacement(
+        exec::seq{}, b3.x, b3.nl, b3.op, regularize::every_particle{}, regularize::every_particle{}, f3, dr3);
     CHECK(r2.shifted == b2.n());
     CHECK(r3.shifted == b3.n());
     // Opposite lattice neighbours cancel; positions a·l0 are not exact binary numbers, hence 1e-12 l0.
     CHECK(r2.max_shift_over_l0 <= 1e-12);
     CHECK(r3.max_shift_over_l0 <= 1e-12);
-    MESSAGE("max shift / l0 on perfect lattices: 2D " << r2.max_shift_over_l0 << ", 3D " << r3.max_shift_over_l0);
+    MESSAGE("max shift / l0 on perfect lattices: 2D " << r2.max_shift_over_l0 << ", 3D "
+                                                      << r3.max_shift_over_l0);
   }
 
   TEST_CASE("regularize: a particle displaced from its lattice site is shifted back towards it") {
@@ -565,10 +593,11 @@ TEST_SUITE("regularize") {
     const regularize::fickian_shifting sh;
     std::vector<flag::type> flags(static_cast<std::size_t>(b.n()), 0);
     points<2> dr;
-    sh.displacement(exec::seq{}, b.x, b.nl, b.op, regularize::every_particle{}, regularize::every_particle{}, flags, dr);
+    sh.displacement(exec::seq{}, b.x, b.nl, b.op, regularize::every_particle{}, regularize::every_particle{},
+                    flags, dr);
     CAPTURE(dr.col(k).transpose());
-    CHECK(dr(0, k) < 0.0);                       // back towards the site (−x)
-    CHECK(std::abs(dr(1, k)) <= 1e-12 * l0);     // mirror symmetry about the x axis through the site
+    CHECK(dr(0, k) < 0.0);                               // back towards the site (−x)
+    CHECK(std::abs(dr(1, k)) <= 1e-12 * l0);             // mirror symmetry about the x axis through the site
     CHECK(dr.col(k).norm() <= 0.05 * l0 * (1 + 1e-15));  // eq. 10 cap
     CHECK((b.x.col(k) + dr.col(k) - site).norm() < 0.1 * l0);
     // 3D, displaced along a diagonal: Δr is anti-parallel to the displacement (cubic symmetry).
@@ -579,7 +608,8 @@ TEST_SUITE("regularize") {
     c.build();
     std::vector<flag::type> f3(static_cast<std::size_t>(c.n()), 0);
     points<3> d3;
-    sh.displacement(exec::seq{}, c.x, c.nl, c.op, regularize::every_particle{}, regularize::every_particle{}, f3, d3);
+    sh.displacement(exec::seq{}, c.x, c.nl, c.op, regularize::every_particle{}, regularize::every_particle{},
+                    f3, d3);
     CHECK(d3.col(q).dot(delta) < 0.0);
     CHECK(d3.col(q).normalized().dot(delta.normalized()) == doctest::Approx(-1.0).epsilon(1e-12));
   }
@@ -595,7 +625,8 @@ TEST_SUITE("regularize") {
     const points<2> x0 = b.x;
     // A huge A_F makes every shift hit the cap.
     const regularize::fickian_shifting sh({1e4, 0.2, 0.1, 0.05});
-    const regularize::shift_report rep = sh.apply(exec::seq{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, flags);
+    const regularize::shift_report rep =
+        sh.apply(exec::seq{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, flags);
     index_t moved_fixed = 0, moved = 0, eligible = 0;
     for (index_t i = 0; i < b.n(); ++i) {
       const bool fixed = !fluid(i) || (flags[static_cast<std::size_t>(i)] & (flag::surface | flag::isolated));
@@ -622,10 +653,12 @@ TEST_SUITE("regularize") {
     u.setZero();
     search::neighbour_list<2> nl;
     nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
-    CHECK_THROWS_AS(col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, 0.0),
-                    mpskit::error);
+    CHECK_THROWS_AS(
+        col.apply(exec::seq{}, x, u, nl, regularize::every_particle{}, regularize::every_particle{}, 0.0),
+        mpskit::error);
     points<2> u2 = points<2>::Zero(2, 2);
-    CHECK_THROWS_AS(col.apply(exec::seq{}, x, u2, nl, regularize::every_particle{}, regularize::every_particle{}, -1.0),
-                    mpskit::error);
+    CHECK_THROWS_AS(
+        col.apply(exec::seq{}, x, u2, nl, regularize::every_particle{}, regularize::every_particle{}, -1.0),
+        mpskit::error);
   }
 }

@@ -60,8 +60,9 @@ class collision final {
   /// `participates(j)`: j counts as a partner; `movable(i)`: i is a fluid particle (changes, α3 = 2 as a
   /// partner); immovable partners act with α3 = 1.
   template <Execution E, int D, class Participates, class Movable>
-  collision_report velocity_change(E e, const points<D>& x, const points<D>& u, const search::neighbour_list<D>& nl,
-                                   const Participates& participates, const Movable& movable, points<D>& du) const {
+  collision_report velocity_change(E e, const points<D>& x, const points<D>& u,
+                                   const search::neighbour_list<D>& nl, const Participates& participates,
+                                   const Movable& movable, points<D>& du) const {
     const index_t n = x.cols();
     check_sizes(x, u, nl);
     const double rc = p_.alpha1 * p_.l0, rc2 = rc * rc;
@@ -94,11 +95,15 @@ class collision final {
     });
     collision_report rep;
     const auto add = [](index_t a, index_t b) { return a + b; };
-    rep.pairs = reduce(e, n, index_t{0}, [&](index_t i) { return hits[static_cast<std::size_t>(i)]; }, add);
-    rep.particles = reduce(e, n, index_t{0}, [&](index_t i) { return index_t{hits[static_cast<std::size_t>(i)] > 0}; }, add);
-    rep.coincident = reduce(e, n, index_t{0}, [&](index_t i) { return zero[static_cast<std::size_t>(i)]; }, add);
-    rep.max_dv = reduce(e, n, 0.0, [&](index_t i) { return du.col(i).norm(); },
-                        [](double a, double b) { return std::max(a, b); });
+    rep.pairs = reduce(
+        e, n, index_t{0}, [&](index_t i) { return hits[static_cast<std::size_t>(i)]; }, add);
+    rep.particles = reduce(
+        e, n, index_t{0}, [&](index_t i) { return index_t{hits[static_cast<std::size_t>(i)] > 0}; }, add);
+    rep.coincident = reduce(
+        e, n, index_t{0}, [&](index_t i) { return zero[static_cast<std::size_t>(i)]; }, add);
+    rep.max_dv = reduce(
+        e, n, 0.0, [&](index_t i) { return du.col(i).norm(); },
+        [](double a, double b) { return std::max(a, b); });
     return rep;
   }
 
@@ -122,7 +127,8 @@ class collision final {
   static void check_sizes(const points<D>& x, const points<D>& u, const search::neighbour_list<D>& nl) {
     if (u.cols() != x.cols()) fail("collision: u has ", u.cols(), " columns for ", x.cols(), " particles");
     if (nl.rows() != x.cols())
-      fail("collision: the neighbour list has ", nl.rows(), " rows for ", x.cols(), " particles (rebuild it)");
+      fail("collision: the neighbour list has ", nl.rows(), " rows for ", x.cols(),
+           " particles (rebuild it)");
   }
   params_type p_;
 };

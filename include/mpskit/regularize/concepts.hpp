@@ -24,8 +24,10 @@ struct every_particle {
 template <class C, int D>
 concept CollisionModel = requires(const C& c, points<D>& x, points<D>& u, const search::neighbour_list<D>& nl) {
   typename C::params_type;
-  { c.apply(exec::seq{}, x, u, nl, every_particle{}, every_particle{}, 0.0).pairs } -> std::convertible_to<index_t>;
-  { c.apply(exec::par{}, x, u, nl, every_particle{}, every_particle{}, 0.0).max_dv } -> std::convertible_to<double>;
+  { c.apply(exec::seq{}, x, u, nl, every_particle{}, every_particle{}, 0.0).pairs }
+      -> std::convertible_to<index_t>;
+  { c.apply(exec::par{}, x, u, nl, every_particle{}, every_particle{}, 0.0).max_dv }
+      -> std::convertible_to<double>;
 };
 
 /// A shifting model for operator Op: `s.apply(exec, x, list, op, participates, movable, flags)` displaces
@@ -36,7 +38,8 @@ concept ShiftingModel = requires(const S& s, points<Op::dim>& x, const search::n
   typename S::params_type;
   { s.apply(exec::seq{}, x, nl, op, every_particle{}, every_particle{}, flags).max_shift_over_l0 }
       -> std::convertible_to<double>;
-  { s.apply(exec::par{}, x, nl, op, every_particle{}, every_particle{}, flags).shifted } -> std::convertible_to<index_t>;
+  { s.apply(exec::par{}, x, nl, op, every_particle{}, every_particle{}, flags).shifted }
+      -> std::convertible_to<index_t>;
 };
 
 }  // namespace mpskit::regularize

@@ -38,7 +38,10 @@ struct fickian_shifting_params {
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("fickian_shifting_params");
-    v.positive("a_f", a_f).positive("courant", courant).positive("mach", mach).positive("max_shift", max_shift);
+    v.positive("a_f", a_f)
+        .positive("courant", courant)
+        .positive("mach", mach)
+        .positive("max_shift", max_shift);
     v.throw_if_any();
   }
 };
@@ -77,22 +80,24 @@ class fickian_shifting final {
 
   /// Δr (D × n) without moving anything; zero for particles that are not shifted.
   template <Execution E, surface::ClassicSupports Op, class Participates, class Movable>
-  shift_report displacement(E e, const points<Op::dim>& x, const search::neighbour_list<Op::dim>& nl, const Op& op,
-                            const Participates& participates, const Movable& movable,
+  shift_report displacement(E e, const points<Op::dim>& x, const search::neighbour_list<Op::dim>& nl,
+                            const Op& op, const Participates& participates, const Movable& movable,
                             std::span<const flag::type> flags, points<Op::dim>& dr) const {
     constexpr int D = Op::dim;
     using K = typename Op::kernel_type;
     const index_t n = x.cols();
-    if (nl.rows() != n) fail("fickian_shifting: the neighbour list has ", nl.rows(), " rows for ", n, " particles");
+    if (nl.rows() != n)
+      fail("fickian_shifting: the neighbour list has ", nl.rows(), " rows for ", n, " particles");
     if (static_cast<index_t>(flags.size()) != n)
       fail("fickian_shifting: flags has ", flags.size(), " entries for ", n, " particles");
     const double l0 = op.params().l0, re = op.re_small(), n0 = op.n0_small();
     const double diff = p_.a_f * l0 * l0 * p_.courant * p_.mach;  // A_F l0² C_r Ma (eq. 9)
-    const double cap = p_.max_shift * l0;                            // eq. 10
+    const double cap = p_.max_shift * l0;                         // eq. 10
     Eigen::VectorXd C;
     concentration(e, x, nl, op, participates, C);
     dr.setZero(D, n);
-    std::vector<std::uint8_t> eligible(static_cast<std::size_t>(n), 0), capped(static_cast<std::size_t>(n), 0);
+    std::vector<std::uint8_t> eligible(static_cast<std::size_t>(n), 0),
+        capped(static_cast<std::size_t>(n), 0);
     for_each_particle(e, n, [&](index_t i) {
       const std::size_t k = static_cast<std::size_t>(i);
       if (!movable(i) || (flags[k] & (flag::surface | flag::isolated))) return;  // eq. 9: Δr = 0 on 𝔽
@@ -111,10 +116,14 @@ class fickian_shifting final {
     });
     shift_report rep;
     const auto add = [](index_t a, index_t b) { return a + b; };
-    rep.shifted = reduce(e, n, index_t{0}, [&](index_t i) { return index_t{eligible[static_cast<std::size_t>(i)]}; }, add);
-    rep.capped = reduce(e, n, index_t{0}, [&](index_t i) { return index_t{capped[static_cast<std::size_t>(i)]}; }, add);
-    rep.max_shift_over_l0 = reduce(e, n, 0.0, [&](index_t i) { return dr.col(i).norm(); },
-                                   [](double a, double b) { return std::max(a, b); }) / l0;
+    rep.shifted = reduce(
+        e, n, index_t{0}, [&](index_t i) { return index_t{eligible[static_cast<std::size_t>(i)]}; }, add);
+    rep.capped = reduce(
+        e, n, index_t{0}, [&](index_t i) { return index_t{capped[static_cast<std::size_t>(i)]}; }, add);
+    const double max_shift = reduce(
+        e, n, 0.0, [&](index_t i) { return dr.col(i).norm(); },
+        [](double a, double b) { return std::max(a, b); });
+    rep.max_shift_over_l0 = max_shift / l0;
     return rep;
   }
 

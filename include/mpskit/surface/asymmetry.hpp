@@ -60,7 +60,7 @@ double flat_surface_asymmetry(double re_ratio) {
 
 /// Numbers of the asymmetry-vector test.
 struct asymmetry_params {
-  double alpha_f = 0.9;  ///< α = α_F |F|⁰ (seed 004, below eq. 15: 0.9)
+  double alpha_f = 0.9;    ///< α = α_F |F|⁰ (seed 004, below eq. 15: 0.9)
   double pnd_ratio = 0.8;  ///< β_n: n_i < β_n n0 is a surface particle regardless of F ([EXT], 0 = off)
   support_choice radius = support_choice::small;  ///< support of W, n0 and n_i
   /// Throws mpskit::error listing every bad value.

@@ -48,9 +48,10 @@ class neighbour_count final {
   double value(const points<Op::dim>& x, const search::neighbour_list<Op::dim>& nl, const Op& op,
                const Participates& participates, index_t i) const {
     index_t c = 0;
-    nl.for_each_neighbour(x, i, detail::support_of(op, p_.radius), [&](index_t j, const vec<Op::dim>&, double) {
-      if (participates(j)) ++c;
-    });
+    nl.for_each_neighbour(x, i, detail::support_of(op, p_.radius),
+                          [&](index_t j, const vec<Op::dim>&, double) {
+                            if (participates(j)) ++c;
+                          });
     return static_cast<double>(c);
   }
   /// N0: neighbours of an interior particle of the reference lattice at the chosen radius ratio.

@@ -35,7 +35,8 @@ struct npcd_params {
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("npcd_params");
-    v.require(beta_f > 0.0 && beta_f <= 1.0, "beta_f", mpskit::detail::concat("is ", beta_f, "; must be in (0, 1]"));
+    v.require(beta_f > 0.0 && beta_f <= 1.0, "beta_f",
+              mpskit::detail::concat("is ", beta_f, "; must be in (0, 1]"));
     v.positive("rho_f", rho_f);
     v.require(max_neighbours >= 0, "max_neighbours",
               mpskit::detail::concat("is ", max_neighbours, "; must be an integer >= 0"));
@@ -71,9 +72,10 @@ class npcd final {
                                 s += w * d;  // Σ W_ij (x_j − x_i), eq. 16 numerator
                               });
     m.sigma = m.n > 0.0 ? s.norm() / m.n : 0.0;
-    nl.for_each_neighbour(x, i, detail::support_of(op, p_.count_radius), [&](index_t j, const vec<Op::dim>&, double) {
-      if (participates(j)) ++m.count;
-    });
+    nl.for_each_neighbour(x, i, detail::support_of(op, p_.count_radius),
+                          [&](index_t j, const vec<Op::dim>&, double) {
+                            if (participates(j)) ++m.count;
+                          });
     return m;
   }
   /// σ_i (m), the deviation compared with ϱ_F l0.
@@ -95,7 +97,7 @@ class npcd final {
   /// The decision on one measure: n_i < β_F n0 (eq. 14) and (σ_i > ϱ_F l0 or N_i ≤ max_neighbours) (eq. 15).
   template <ClassicSupports Op>
   bool is_surface(const npcd_measure& m, const Op& op) const {
-    if (!(m.n < rough_threshold(op))) return false;                   // eq. 14: inner
+    if (!(m.n < rough_threshold(op))) return false;                  // eq. 14: inner
     return m.sigma > threshold(op) || m.count <= p_.max_neighbours;  // eq. 15, "or" reading
   }
 

@@ -25,10 +25,12 @@ template <int D>
 void check_sizes(std::string_view who, const points<D>& x, const search::neighbour_list<D>& nl,
                  std::span<const std::uint8_t> candidate, const std::vector<flag::type>& flags) {
   const index_t n = x.cols();
-  if (nl.rows() != n) fail(who, ": the neighbour list has ", nl.rows(), " rows for ", n, " particles (rebuild it)");
+  if (nl.rows() != n)
+    fail(who, ": the neighbour list has ", nl.rows(), " rows for ", n, " particles (rebuild it)");
   if (static_cast<index_t>(candidate.size()) != n)
     fail(who, ": candidate has ", candidate.size(), " entries for ", n, " particles");
-  if (static_cast<index_t>(flags.size()) != n) fail(who, ": flags has ", flags.size(), " entries for ", n, " particles");
+  if (static_cast<index_t>(flags.size()) != n)
+    fail(who, ": flags has ", flags.size(), " entries for ", n, " particles");
 }
 
 /// The support (radius, rule) of `choice`.
