@@ -222,15 +222,12 @@ void save_checkpoint(const std::filesystem::path& path, const State& state,
     detail::append_value(payload, static_cast<std::uint64_t>(sec.data.size()));
     payload += sec.data;
   }
-  std::string file;
-  file.reserve(32 + payload.size());
-  file += checkpoint_magic;
-  detail::append_value(file, checkpoint_version);
-  detail::append_value(file, static_cast<std::uint32_t>(D));
-  detail::append_value(file, static_cast<std::uint64_t>(payload.size()));
-  detail::append_value(file, detail::fnv1a64(payload));
-  file += payload;
-  detail::write_file_atomic(path, file, "save_checkpoint");
+  std::string header(checkpoint_magic);
+  detail::append_value(header, checkpoint_version);
+  detail::append_value(header, static_cast<std::uint32_t>(D));
+  detail::append_value(header, static_cast<std::uint64_t>(payload.size()));
+  detail::append_value(header, detail::fnv1a64(payload));
+  detail::write_file_atomic(path, {header, payload}, "save_checkpoint");
 }
 
 /// \brief Reads a checkpoint into `state` (every field, order, ids, counts, next id) and `sections`.

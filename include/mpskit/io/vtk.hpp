@@ -157,7 +157,10 @@ void write_vtu(const std::filesystem::path& path, const State& state, const vtu_
 
   const vtk_encoding enc = opt.encoding;
   std::string xml, appended;
-  xml.reserve(256 + (enc == vtk_encoding::base64 ? 4 * (points_blob.bytes.size() * (point_data.size() + 3)) / 3 : 0));
+  std::size_t payload = points_blob.bytes.size() + 17 * un + 64;
+  for (const auto& b : point_data) payload += b.bytes.size() + 8;
+  if (enc == vtk_encoding::base64) xml.reserve(4096 + payload / 3 * 4 + 4 * 64);
+  else appended.reserve(payload);
   xml += "<?xml version=\"1.0\"?>\n<!-- mpskit particles: ";
   xml += opt.include_ghosts ? "real and ghost" : "real only";
   xml += "; units of each array in its 'units' attribute (docs/io.md) -->\n";
@@ -188,11 +191,11 @@ void write_vtu(const std::filesystem::path& path, const State& state, const vtu_
   xml += "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n";
   if (enc == vtk_encoding::raw_appended) {
     xml += "  <AppendedData encoding=\"raw\">\n   _";
-    xml += appended;
-    xml += "\n  </AppendedData>\n";
+    detail::write_file_atomic(path, {xml, appended, "\n  </AppendedData>\n</VTKFile>\n"}, "write_vtu");
+  } else {
+    xml += "</VTKFile>\n";
+    detail::write_file_atomic(path, {xml}, "write_vtu");
   }
-  xml += "</VTKFile>\n";
-  detail::write_file_atomic(path, xml, "write_vtu");
 }
 
 /// One dataset of a .pvd collection.
@@ -236,7 +239,7 @@ class pvd_series {
       xml += "\"/>\n";
     }
     xml += "  </Collection>\n</VTKFile>\n";
-    detail::write_file_atomic(path_, xml, "pvd_series");
+    detail::write_file_atomic(path_, {xml}, "pvd_series");
   }
 
   const std::vector<pvd_entry>& entries() const { return entries_; }  ///< datasets in order

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iterator>
 #include <limits>
 #include <string>
@@ -46,27 +47,29 @@ void append_value(std::string& out, const T& v) {
   append_raw(out, &v, 1);
 }
 
-/// Base64 encoding (RFC 4648 §4, with '=' padding, no line breaks).
+/// Base64 encoding (RFC 4648 §4, with '=' padding, no line breaks), appended to `out`.
 inline void base64_encode(std::string_view in, std::string& out) {
   static constexpr char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   const auto* p = reinterpret_cast<const unsigned char*>(in.data());
   const std::size_t n = in.size();
-  out.reserve(out.size() + 4 * ((n + 2) / 3));
+  const std::size_t base = out.size();
+  out.resize(base + 4 * ((n + 2) / 3));
+  char* o = out.data() + base;
   std::size_t i = 0;
   for (; i + 3 <= n; i += 3) {
     const std::uint32_t v = (std::uint32_t{p[i]} << 16) | (std::uint32_t{p[i + 1]} << 8) | p[i + 2];
-    out += table[(v >> 18) & 63];
-    out += table[(v >> 12) & 63];
-    out += table[(v >> 6) & 63];
-    out += table[v & 63];
+    *o++ = table[(v >> 18) & 63];
+    *o++ = table[(v >> 12) & 63];
+    *o++ = table[(v >> 6) & 63];
+    *o++ = table[v & 63];
   }
   if (i < n) {
     const bool two = i + 1 < n;
     const std::uint32_t v = (std::uint32_t{p[i]} << 16) | (two ? std::uint32_t{p[i + 1]} << 8 : 0u);
-    out += table[(v >> 18) & 63];
-    out += table[(v >> 12) & 63];
-    out += two ? table[(v >> 6) & 63] : '=';
-    out += '=';
+    *o++ = table[(v >> 18) & 63];
+    *o++ = table[(v >> 12) & 63];
+    *o++ = two ? table[(v >> 6) & 63] : '=';
+    *o++ = '=';
   }
 }
 
@@ -74,37 +77,57 @@ inline void base64_encode(std::string_view in, std::string& out) {
 /// (VTK readers and writers sometimes encode a block's header and its data separately). Returns false
 /// on a character outside the alphabet or a dangling partial quartet.
 inline bool base64_decode(std::string_view in, std::string& out) {
+  // Table: 0..63 alphabet, 64 '=', 65 whitespace, 255 invalid.
   static constexpr auto table = [] {
-    std::array<signed char, 256> t{};
-    t.fill(-1);
+    std::array<unsigned char, 256> t{};
+    t.fill(255);
     const char* a = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    for (int k = 0; k < 64; ++k) t[static_cast<unsigned char>(a[k])] = static_cast<signed char>(k);
+    for (int k = 0; k < 64; ++k) t[static_cast<unsigned char>(a[k])] = static_cast<unsigned char>(k);
+    t['='] = 64;
+    for (const char c : {' ', '\n', '\r', '\t'}) t[static_cast<unsigned char>(c)] = 65;
     return t;
   }();
-  out.reserve(out.size() + in.size() / 4 * 3);
-  int quad[4];
+  const std::size_t base = out.size();
+  out.resize(base + in.size() / 4 * 3 + 3);
+  char* o = out.data() + base;
+  const auto* p = reinterpret_cast<const unsigned char*>(in.data());
+  const auto* e = p + in.size();
+  unsigned quad[4];
   int nq = 0, pad = 0;
-  for (const char c : in) {
-    if (c == ' ' || c == '\n' || c == '\r' || c == '\t') continue;
-    if (c == '=') {
+  while (p < e) {
+    // Fast path: four alphabet characters in a row at a quartet boundary.
+    if (nq == 0 && e - p >= 4) {
+      const unsigned a = table[p[0]], b = table[p[1]], c = table[p[2]], d = table[p[3]];
+      if ((a | b | c | d) < 64) {
+        const std::uint32_t v = (a << 18) | (b << 12) | (c << 6) | d;
+        *o++ = static_cast<char>(v >> 16);
+        *o++ = static_cast<char>((v >> 8) & 0xff);
+        *o++ = static_cast<char>(v & 0xff);
+        p += 4;
+        continue;
+      }
+    }
+    const unsigned v = table[*p++];
+    if (v == 65) continue;
+    if (v == 255) return false;
+    if (v == 64) {
       if (nq < 2) return false;
       ++pad;
       quad[nq++] = 0;
     } else {
-      const int v = table[static_cast<unsigned char>(c)];
-      if (v < 0 || pad > 0) return false;
+      if (pad > 0) return false;
       quad[nq++] = v;
     }
     if (nq == 4) {
-      const std::uint32_t v = (std::uint32_t(quad[0]) << 18) | (std::uint32_t(quad[1]) << 12) |
-                              (std::uint32_t(quad[2]) << 6) | std::uint32_t(quad[3]);
-      out += static_cast<char>((v >> 16) & 0xff);
-      if (pad < 2) out += static_cast<char>((v >> 8) & 0xff);
-      if (pad < 1) out += static_cast<char>(v & 0xff);
+      const std::uint32_t w = (quad[0] << 18) | (quad[1] << 12) | (quad[2] << 6) | quad[3];
+      *o++ = static_cast<char>((w >> 16) & 0xff);
+      if (pad < 2) *o++ = static_cast<char>((w >> 8) & 0xff);
+      if (pad < 1) *o++ = static_cast<char>(w & 0xff);
       nq = 0;
       pad = 0;
     }
   }
+  out.resize(static_cast<std::size_t>(o - out.data()));
   return nq == 0;
 }
 
@@ -119,17 +142,21 @@ inline std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t h = 146959810
 
 /// Reads a whole file; throws mpskit::error naming `what` and the path when it cannot be opened or read.
 inline std::string read_file(const std::filesystem::path& path, std::string_view what) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) fail(what, ": cannot open '", path.string(), "' for reading");
-  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) fail(what, ": error while reading '", path.string(), "'");
+  const std::streamoff size = in.tellg();
+  if (size < 0) fail(what, ": cannot determine the size of '", path.string(), "'");
+  std::string s(static_cast<std::size_t>(size), '\0');
+  in.seekg(0);
+  if (size > 0 && !in.read(s.data(), size)) fail(what, ": error while reading '", path.string(), "'");
   return s;
 }
 
-/// Writes `content` to `path` atomically: a temporary file beside it ("<name>.tmp-<pid>") is written,
+/// Writes the concatenation of `parts` to `path` atomically: a temporary file beside it ("<name>.tmp-<pid>") is written,
 /// flushed (and fsync'ed on POSIX), then renamed over `path`. Readers see the old file or the new one,
 /// never a part. Throws mpskit::error naming the path and the reason.
-inline void write_file_atomic(const std::filesystem::path& path, std::string_view content, std::string_view what) {
+inline void write_file_atomic(const std::filesystem::path& path, std::initializer_list<std::string_view> parts,
+                              std::string_view what) {
   if (path.empty()) fail(what, ": empty output path");
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   std::error_code ec;
@@ -144,7 +171,9 @@ inline void write_file_atomic(const std::filesystem::path& path, std::string_vie
   tmp += ".tmp-" + std::to_string(pid);
   std::FILE* f = std::fopen(tmp.string().c_str(), "wb");
   if (!f) fail(what, ": cannot write '", path.string(), "': cannot create '", tmp.string(), "' (", std::strerror(errno), ")");
-  bool ok = content.empty() || std::fwrite(content.data(), 1, content.size(), f) == content.size();
+  bool ok = true;
+  for (const std::string_view content : parts)
+    ok = ok && (content.empty() || std::fwrite(content.data(), 1, content.size(), f) == content.size());
   ok = std::fflush(f) == 0 && ok;
 #if MPSKIT_IO_HAS_POSIX
   ok = ::fsync(::fileno(f)) == 0 && ok;

@@ -3,6 +3,7 @@
 /// \brief A small XML reader for the files io/ writes (.vtu, .pvd): elements, attributes, text,
 /// comments and the prolog; no DTDs, no CDATA. A VTK `<AppendedData encoding="raw">` element ends the
 /// parse: its binary content is located, not parsed.
+#include <algorithm>
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -50,15 +51,16 @@ class xml_parser {
   std::size_t appended_begin() const { return appended_; }  ///< npos when there is none
   static constexpr std::size_t npos_ = std::string_view::npos;
 
-  [[noreturn]] void error(std::string_view msg) const {
-    fail(what_, ": '", file_, "': line ", line_at(p_), ": ", msg);
+  [[noreturn]] void error(std::string_view msg) {
+    fail(what_, ": '", file_, "': line ", line_now(), ": ", msg);
   }
 
  private:
-  std::size_t line_at(std::size_t pos) const {
-    std::size_t l = 1;
-    for (std::size_t k = 0; k < pos && k < s_.size(); ++k) l += s_[k] == '\n';
-    return l;
+  /// Line of the current position; counted incrementally (the position only moves forward).
+  std::size_t line_now() {
+    const std::size_t end = std::min(p_, s_.size());
+    for (; counted_ < end; ++counted_) line_ += s_[counted_] == '\n';
+    return line_;
   }
   bool starts(std::string_view t) const { return s_.substr(p_, t.size()) == t; }
   static bool space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t'; }
@@ -84,7 +86,8 @@ class xml_parser {
     if (p_ == b) error("expected a name");
     return std::string(s_.substr(b, p_ - b));
   }
-  std::string unescape(std::string_view t) const {
+  std::string unescape(std::string_view t) {
+    if (t.find('&') == std::string_view::npos) return std::string(t);
     std::string out;
     for (std::size_t k = 0; k < t.size(); ++k) {
       if (t[k] != '&') {
@@ -107,7 +110,7 @@ class xml_parser {
 
   xml_node element() {
     xml_node n;
-    n.line = line_at(p_);
+    n.line = line_now();
     ++p_;  // '<'
     n.name = name();
     for (;;) {
@@ -171,6 +174,7 @@ class xml_parser {
   std::string what_, file_;
   std::size_t p_ = 0;
   std::size_t appended_ = npos_;
+  std::size_t counted_ = 0, line_ = 1;
 };
 
 }  // namespace mpskit::io::detail
