@@ -56,6 +56,33 @@ struct detector_archetype {
   params_type p_;
 };
 
+/// The least a type must offer to model regularize::CollisionModel.
+struct collision_archetype {
+  struct params_type {};
+  struct report {
+    index_t pairs = 0;
+    double max_dv = 0.0;
+  };
+  template <Execution E, int D, class P, class M>
+  report apply(E, points<D>&, points<D>&, const search::neighbour_list<D>&, const P&, const M&, double) const {
+    return {};
+  }
+};
+
+/// The least a type must offer to model regularize::ShiftingModel.
+struct shifting_archetype {
+  struct params_type {};
+  struct report {
+    index_t shifted = 0;
+    double max_shift_over_l0 = 0.0;
+  };
+  template <Execution E, class Op, class P, class M>
+  report apply(E, points<Op::dim>&, const search::neighbour_list<Op::dim>&, const Op&, const P&, const M&,
+               std::span<const flag::type>) const {
+    return {};
+  }
+};
+
 using op2 = op::mps<2>;
 using op3 = op::mps<3>;
 static_assert(surface::ClassicSupports<op2> && surface::ClassicSupports<op3> &&
@@ -66,12 +93,13 @@ static_assert(surface::SurfaceDetector<surface::pnd_threshold, op2> &&
               surface::SurfaceDetector<surface::asymmetry, op3> &&
               surface::SurfaceDetector<detector_archetype, op2> && !surface::SurfaceDetector<int, op2>);
 static_assert(regularize::CollisionModel<regularize::collision, 2> &&
-              regularize::CollisionModel<regularize::collision, 3> && !regularize::CollisionModel<int, 2>);
+              regularize::CollisionModel<regularize::collision, 3> &&
+              regularize::CollisionModel<collision_archetype, 2> && !regularize::CollisionModel<int, 2>);
 static_assert(std::is_same_v<surface::npcd::fields, field_list<>> &&
               std::is_same_v<regularize::collision::fields, field_list<>>);  // core fields only
 static_assert(regularize::ShiftingModel<regularize::fickian_shifting, op2> &&
               regularize::ShiftingModel<regularize::fickian_shifting, op3> &&
-              !regularize::ShiftingModel<int, op2>);
+              regularize::ShiftingModel<shifting_archetype, op2> && !regularize::ShiftingModel<int, op2>);
 
 constexpr double l0 = 0.01;
 
@@ -409,6 +437,7 @@ TEST_SUITE("surface") {
     const regularize::shift_report s1 =
         sh.displacement(exec::par{}, b.x, b.nl, b.op, regularize::every_particle{}, fluid, F1[2], dr1);
     omp_set_num_threads(2);
+    REQUIRE(max_threads() == 2);
     run_detectors(F2, V2);
     const regularize::collision_report c2 =
         col.velocity_change(exec::par{}, b.x, u, b.nl, regularize::every_particle{}, fluid, du2);
