@@ -1,0 +1,182 @@
+#pragma once
+/// \file op/detail/lsmps_basis.hpp
+/// \brief Scaled monomial bases of LSMPS (Tanaka 2018 eqs. 42–46 and 48–52; Tamai & Koshizuka 2014):
+/// p(x) = [x^α]_{1 ≤ |α| ≤ p} in graded order (2D order 2: x, y, x², xy, y², eq. 46; 3D order 2:
+/// x, y, z, x², xy, xz, y², yz, z²), with H = diag(α!/L^|α|) so that ∂^α f = α!/L^|α| a_α for the
+/// coefficient a_α of (x/L)^α. (The extraction's L⁻¹ on the second-derivative rows of eqs. 43 and 49 is a
+/// typo: a Taylor expansion in x/L gives L⁻², docs/operators.md §LSMPS.) Also a fixed-size LDLᵀ with a
+/// relative-pivot test, shared by type A and type B.
+#include <Eigen/Core>
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "mpskit/core/dimension.hpp"
+
+namespace mpskit::op::detail {
+
+/// Number of monomials with 1 ≤ |α| ≤ p in D dimensions: C(D + p, p) − 1 (2D: 2/5/9, 3D: 3/9/19).
+constexpr int basis_size(int D, int p) {
+  int n = 1, d = 1;
+  for (int k = 1; k <= p; ++k) {
+    n *= D + k;
+    d *= k;
+  }
+  return n / d - 1;
+}
+
+/// Monomial table of order p in D dimensions (graded, within a degree lexicographic with x first).
+template <int D, int P>
+struct monomials {
+  static constexpr int size = basis_size(D, P);
+  std::array<std::array<int, 3>, size> alpha{};  ///< exponents (z exponent 0 in 2D)
+  std::array<int, size> degree{};                ///< |α|
+  std::array<double, size> factorial{};          ///< α! = Π α_a!
+  constexpr monomials() {
+    int k = 0;
+    for (int deg = 1; deg <= P; ++deg) {
+      if constexpr (D == 2) {
+        for (int ax = deg; ax >= 0; --ax) set(k++, ax, deg - ax, 0);
+      } else {
+        for (int ax = deg; ax >= 0; --ax)
+          for (int ay = deg - ax; ay >= 0; --ay) set(k++, ax, ay, deg - ax - ay);
+      }
+    }
+  }
+
+ private:
+  static constexpr double fact(int n) { return n <= 1 ? 1.0 : n * fact(n - 1); }
+  constexpr void set(int k, int ax, int ay, int az) {
+    alpha[k] = {ax, ay, az};
+    degree[k] = ax + ay + az;
+    factorial[k] = fact(ax) * fact(ay) * fact(az);
+  }
+};
+
+/// Basis of order P in D dimensions: evaluation of p(s) (s = x/L, already scaled), H and selectors.
+template <int D, int P>
+  requires Dimension<D> && (P >= 1 && P <= 3)
+struct lsmps_basis {
+  static constexpr monomials<D, P> table{};
+  static constexpr int size = monomials<D, P>::size;   ///< m
+  static constexpr int size_at(int p) { return basis_size(D, p); }  ///< m of a lower order p
+  using vector = Eigen::Matrix<double, size, 1>;
+
+  /// p(s) for a scaled displacement s (Tanaka eq. 46 and its 3D / order-1 and order-3 analogues).
+  static void eval(const vec<D>& s, vector& out) {
+    // powers of each coordinate up to P
+    std::array<std::array<double, P + 1>, D> pw{};
+    for (int a = 0; a < D; ++a) {
+      pw[a][0] = 1.0;
+      for (int e = 1; e <= P; ++e) pw[a][e] = pw[a][e - 1] * s[a];
+    }
+    for (int k = 0; k < size; ++k) {
+      double v = pw[0][table.alpha[k][0]] * pw[1][table.alpha[k][1]];
+      if constexpr (D == 3) v *= pw[2][table.alpha[k][2]];
+      out[k] = v;
+    }
+  }
+
+  /// diag(H) for diameter L: α!/L^|α| (Tanaka eq. 43 read with L^−|α|, see file comment).
+  static vector h_diag(double L) {
+    vector h;
+    const double Linv = 1.0 / L;
+    for (int k = 0; k < size; ++k) {
+      double s = 1.0;
+      for (int e = 0; e < table.degree[k]; ++e) s *= Linv;
+      h[k] = table.factorial[k] * s;
+    }
+    return h;
+  }
+
+  /// Index of the monomial with exponents (ax, ay, az) (−1 if absent).
+  static constexpr int index_of(int ax, int ay, int az = 0) {
+    for (int k = 0; k < size; ++k)
+      if (table.alpha[k][0] == ax && table.alpha[k][1] == ay && table.alpha[k][2] == az) return k;
+    return -1;
+  }
+  /// Selector of ∂/∂x_a (row over D_x).
+  static vector gradient_selector(int a) {
+    vector s = vector::Zero();
+    s[a] = 1.0;
+    return s;
+  }
+  /// Selector of the Laplacian Σ_a ∂²/∂x_a² (zero for P = 1: the order-1 basis has no second derivatives).
+  static vector laplacian_selector() {
+    vector s = vector::Zero();
+    if constexpr (P >= 2)
+      for (int a = 0; a < D; ++a) {
+        std::array<int, 3> e{0, 0, 0};
+        e[a] = 2;
+        s[index_of(e[0], e[1], e[2])] = 1.0;
+      }
+    return s;
+  }
+  /// Selector of the directional derivative n·∇.
+  static vector directional_selector(const vec<D>& n) {
+    vector s = vector::Zero();
+    for (int a = 0; a < D; ++a) s[a] = n[a];
+    return s;
+  }
+};
+
+/// Result of a factorisation with the relative-pivot test.
+struct pivot_result {
+  int passed = 0;           ///< leading columns whose pivots passed (the order-k block is usable if ≥ m_k)
+  double min_ratio = 1.0;   ///< smallest d_k / max_{s≤k} M_ss among the passed columns
+};
+
+/// In-place LDLᵀ of the leading n×n block of a symmetric matrix A (lower triangle read), stopping at
+/// the first column k whose pivot fails d_k > tol · max_{s≤k} A_ss (or is not finite). Since the largest
+/// diagonal entry bounds λ_max from below and every pivot of a leading block bounds λ_min of that block
+/// from above, a failed column means cond₂ of the leading (k+1) block is ≥ 1/tol. The test catches
+/// linear dependence (collinear or coplanar points, too few neighbours, an isolated particle: A = 0) and
+/// neighbourhoods that are thin relative to L. On return the strictly lower part holds L and the
+/// diagonal holds D for the leading `passed` columns.
+template <class Mat>
+pivot_result ldlt_pivoted(Mat& A, int n, double tol) {
+  pivot_result r;
+  double amax = 0.0;
+  for (int k = 0; k < n; ++k) {
+    const double akk = A(k, k);
+    amax = std::max(amax, akk);
+    double d = akk;
+    for (int s = 0; s < k; ++s) d -= A(k, s) * A(k, s) * A(s, s);
+    if (!(d > tol * amax) || !std::isfinite(d)) return r;
+    A(k, k) = d;
+    r.min_ratio = std::min(r.min_ratio, d / amax);
+    const double dinv = 1.0 / d;
+    for (int i = k + 1; i < n; ++i) {
+      double v = A(i, k);
+      for (int s = 0; s < k; ++s) v -= A(i, s) * A(k, s) * A(s, s);
+      A(i, k) = v * dinv;
+    }
+    r.passed = k + 1;
+  }
+  return r;
+}
+
+/// Inverse of the leading n×n block from its LDLᵀ factor (as left by ldlt_pivoted), written to the
+/// leading block of `out` (rest zero): M⁻¹ = L⁻ᵀ D⁻¹ L⁻¹.
+template <class Mat, class Out>
+void ldlt_inverse(const Mat& F, int n, Out& out) {
+  out.setZero();
+  // Column by column: solve L y = e_c, then D z = y, then Lᵀ x = z.
+  for (int c = 0; c < n; ++c) {
+    std::array<double, 20> y{};
+    for (int i = 0; i < n; ++i) {
+      double v = i == c ? 1.0 : 0.0;
+      for (int s = c; s < i; ++s) v -= F(i, s) * y[s];
+      y[i] = i < c ? 0.0 : v;
+    }
+    for (int i = c; i < n; ++i) y[i] /= F(i, i);
+    for (int i = n - 1; i >= 0; --i) {
+      double v = y[i];
+      for (int s = i + 1; s < n; ++s) v -= F(s, i) * y[s];
+      y[i] = v;
+    }
+    for (int i = 0; i < n; ++i) out(i, c) = y[i];
+  }
+}
+
+}  // namespace mpskit::op::detail

@@ -1,0 +1,53 @@
+#pragma once
+/// \file op/lsmps_params.hpp
+/// \brief Numbers and options shared by LSMPS type A and type B (Tanaka 2018 §4.1–4.2, eqs. 27–29, 41–52,
+/// 85–87; Tamai & Koshizuka 2014), and the Neumann-constraint description.
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "mpskit/core/dimension.hpp"
+#include "mpskit/core/params.hpp"
+#include "mpskit/search/radius.hpp"
+
+namespace mpskit::op {
+
+/// What a degenerate neighbourhood falls back to (docs/operators.md "Degenerate neighbourhoods").
+enum class degenerate_fallback : std::uint8_t {
+  lower_order,  ///< the highest lower order whose moment block passes; if order 1 fails, regularised order 1
+  regularise,   ///< the full order with M + δ I, δ = regularisation · max_k M_kk
+};
+
+/// Reading of Tanaka eqs. 86–87 (the Neumann constraint), docs/operators.md "Neumann constraint".
+enum class neumann_form : std::uint8_t {
+  derivative,  ///< constraint row ∂p/∂(−n)(0): the linear entries of p(−n), higher entries 0 (exact on polynomials)
+  literal,     ///< p(−n_i) as printed: a virtual neighbour at x_i − L_i n_i valued f_i − L_i ∂f/∂n (O(L²) error)
+};
+
+/// Numbers of LSMPS operators.
+struct lsmps_params {
+  double re_ratio = 3.1;  ///< R_i = re_ratio · L_i (Tanaka eq. 27, R_e = 3.1)
+  search::radius_rule rule = search::radius_rule::pair_mean;  ///< pair radius (Tanaka eq. 28: pair mean)
+  /// Degenerate test: column k of the LDLᵀ of M fails when its pivot d_k ≤ pivot_tolerance · max_{s≤k} M_ss
+  /// (so a flagged moment block has cond₂ ≥ 1/pivot_tolerance).
+  double pivot_tolerance = 1e-10;
+  degenerate_fallback fallback = degenerate_fallback::lower_order;  ///< what a failed test falls back to
+  double regularisation = 1e-6;  ///< δ / max_k M_kk of the regularised fallback
+  /// Throws mpskit::error listing every bad value.
+  void validate() const {
+    validator v("lsmps_params");
+    v.positive("re_ratio", re_ratio).in_open_range("pivot_tolerance", pivot_tolerance, 0.0, 1.0);
+    v.in_open_range("regularisation", regularisation, 0.0, 1.0);
+    v.throw_if_any();
+  }
+};
+
+/// Particles carrying the Neumann constraint of Tanaka eqs. 85–87 (type A only).
+template <int D>
+struct neumann_constraint {
+  const points<D>* normal = nullptr;  ///< unit normals n_i (wall particles: towards the fluid, Tanaka §4.1)
+  const std::vector<std::uint8_t>* constrained = nullptr;  ///< nonzero entry: particle i is constrained
+  neumann_form form = neumann_form::derivative;            ///< reading of eqs. 86–87
+};
+
+}  // namespace mpskit::op
