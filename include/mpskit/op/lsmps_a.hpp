@@ -82,10 +82,9 @@ class lsmps_a final {
   const std::vector<flag::type>& flags() const { return flags_; }      ///< flag::degenerate per particle
   /// Exact order achieved at i: Order, a lower order (fallback), or 0 (regularised or isolated).
   int order_used(index_t i) const { return order_[static_cast<std::size_t>(i)]; }
-  /// Condition estimate of particle i's moment matrix: the largest max_{s≤k} M_ss / d_k over its LDLᵀ pivots (a lower
-  /// bound of cond₂(M_i), over the columns that passed the pivot test; 1/regularisation when regularised,
-  /// 0 when the factor is zero).
-  double condition_estimate(index_t i) const { return cond_[static_cast<std::size_t>(i)]; }
+  /// cond₁ = ‖M‖₁‖M⁻¹‖₁ of the moment block used at i (after a fallback: of the lower-order block; when
+  /// regularised: ‖M‖₁‖(M + δI)⁻¹‖₁; 0 for a zero factor).
+  double condition(index_t i) const { return cond_[static_cast<std::size_t>(i)]; }
   /// Particles flagged degenerate by the last compute.
   index_t degenerate_count() const {
     index_t c = 0;
@@ -98,6 +97,13 @@ class lsmps_a final {
   }
   double diameter(index_t i) const { return L_ ? (*L_)[i] : l_; }     ///< L_i
   double re(index_t i) const { return p_.re_ratio * diameter(i); }    ///< R_i = re_ratio · L_i
+
+  /// M_i recomputed (eq. 44, + N_i when constrained; full symmetric) — a diagnostic, not the stored factor.
+  template <class Filter = all_neighbours>
+  matrix moments(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter = {}) const {
+    matrix M = moment_lower(x, nl, i, filter);
+    return M.template selfadjointView<Eigen::Lower>();
+  }
 
   static vector gradient_selector(int a) { return basis::gradient_selector(a); }       ///< ∂/∂x_a
   static vector laplacian_selector() { return basis::laplacian_selector(); }           ///< ∇²
@@ -351,9 +357,9 @@ class lsmps_a final {
     for_each_particle(e, n, [&](index_t i) { factor_one(x, nl, i, filter); });
   }
 
-  /// Moments (eq. 44, + N_i of eq. 86), the pivot test and the fallback for particle i.
+  /// Lower triangle of M_i (eq. 44) + N_i (eq. 86) when constrained.
   template <class Filter>
-  void factor_one(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter) {
+  matrix moment_lower(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter) const {
     matrix M = matrix::Zero();
     vector pv;
     sweep(x, nl, i, filter, [&](index_t, double w, const vec<D>& s) {
@@ -369,41 +375,21 @@ class lsmps_a final {
       for (int a = 0; a < basis_size; ++a)
         for (int b = 0; b <= a; ++b) M(a, b) += q[a] * q[b] / w0;  // w(0) q qᵀ
     }
-    Eigen::Map<matrix> out(factors_.data() + static_cast<std::size_t>(i) * msq);
-    matrix F = M;
-    const detail::pivot_result r = detail::ldlt_pivoted(F, basis_size, p_.pivot_tolerance);
-    cond_[static_cast<std::size_t>(i)] = 1.0 / r.min_ratio;
-    if (r.passed == basis_size) {
-      detail::ldlt_inverse(F, basis_size, out);
-      order_[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(Order);
-      return;
-    }
-    flags_[static_cast<std::size_t>(i)] |= flag::degenerate;
-    if (p_.fallback == degenerate_fallback::lower_order) {
-      int ord = Order - 1;
-      while (ord >= 1 && basis::size_at(ord) > r.passed) --ord;
-      if (ord >= 1) {  // the leading block's factor is the leading part of F
-        detail::ldlt_inverse(F, basis::size_at(ord), out);
-        order_[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(ord);
-        return;
-      }
-      regularised(M, D, out);
-    } else {
-      regularised(M, basis_size, out);
-    }
-    cond_[static_cast<std::size_t>(i)] = out.isZero(0.0) ? 0.0 : 1.0 / p_.regularisation;  // bound of the shifted matrix
-    order_[static_cast<std::size_t>(i)] = 0;
+    return M;
   }
 
-  /// (M + δ I)⁻¹ on the leading n×n block, δ = regularisation · max M_kk; zero when M has no weight.
-  void regularised(const matrix& M, int n, Eigen::Map<matrix>& out) const {
-    double mx = 0.0;
-    for (int k = 0; k < n; ++k) mx = std::max(mx, M(k, k));
-    out.setZero();
-    if (!(mx > 0.0) || !std::isfinite(mx)) return;
-    matrix F = M;
-    for (int k = 0; k < n; ++k) F(k, k) += p_.regularisation * mx;
-    if (detail::ldlt_pivoted(F, n, 0.0).passed == n) detail::ldlt_inverse(F, n, out);
+  /// Moments, the pivot test and the fallback for particle i.
+  template <class Filter>
+  void factor_one(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter) {
+    const matrix M = moment_lower(x, nl, i, filter);
+    matrix inv;
+    const detail::factor_result r = detail::factorise(
+        M, Order, [](int p) { return basis::size_at(p); }, 1, p_.fallback == degenerate_fallback::lower_order,
+        p_.max_condition, p_.regularisation, p_.fallback == degenerate_fallback::lower_order ? D : basis_size, inv);
+    Eigen::Map<matrix>(factors_.data() + static_cast<std::size_t>(i) * msq) = inv;
+    if (r.degenerate) flags_[static_cast<std::size_t>(i)] |= flag::degenerate;
+    order_[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(r.order);
+    cond_[static_cast<std::size_t>(i)] = r.condition;
   }
 
   lsmps_params p_;

@@ -43,9 +43,9 @@ class lsmps_b final {
   struct point_stencil {
     vec<D> x = vec<D>::Zero();      ///< the point
     double l = 0.0;                 ///< its diameter
-    int order_used = 0;             ///< exact order achieved (0: weighted average or nothing)
+    int order_used = 0;             ///< exact order achieved (0: weighted average, regularised, or nothing)
     flag::type flags = 0;           ///< flag::degenerate when the fit fell back
-    double condition = 0.0;         ///< condition estimate of M̂ (as lsmps_a::condition_estimate)
+    double condition = 0.0;         ///< cond₁ of the block of M̂ used (as lsmps_a::condition)
     std::vector<index_t> columns;   ///< particles with weight
     std::vector<vector> weights;    ///< ĉ_j per column (value, then D_x)
     /// [value, D_x φ] at the point.
@@ -108,37 +108,14 @@ class lsmps_b final {
     for (std::size_t k = 0; k < P.size(); ++k)
       for (int a = 0; a < basis_size; ++a)
         for (int b = 0; b <= a; ++b) M(a, b) += w[k] * P[k][a] * P[k][b];  // eq. 50 (lower triangle)
-    matrix Minv = matrix::Zero(), F = M;
-    const detail::pivot_result r = detail::ldlt_pivoted(F, basis_size, p_.pivot_tolerance);
-    st.condition = 1.0 / r.min_ratio;
-    if (r.passed == basis_size) {
-      detail::ldlt_inverse(F, basis_size, Minv);
-      st.order_used = Order;
-    } else {
-      st.flags |= flag::degenerate;
-      bool done = false;
-      if (p_.fallback == degenerate_fallback::lower_order) {
-        int ord = Order - 1;
-        while (ord >= 0 && 1 + basis::size_at(ord) > r.passed) --ord;  // size_at(0) = 0: the weighted average
-        if (ord >= 0) {
-          detail::ldlt_inverse(F, 1 + basis::size_at(ord), Minv);
-          st.order_used = ord;
-          done = true;
-        }
-      }
-      if (!done) {  // regularised full order (or nothing when no candidate has weight)
-        double mx = 0.0;
-        for (int k = 0; k < basis_size; ++k) mx = std::max(mx, M(k, k));
-        if (mx > 0.0 && std::isfinite(mx)) {
-          F = M;
-          for (int k = 0; k < basis_size; ++k) F(k, k) += p_.regularisation * mx;
-          if (detail::ldlt_pivoted(F, basis_size, 0.0).passed == basis_size)
-            detail::ldlt_inverse(F, basis_size, Minv);
-        }
-        st.condition = Minv.isZero(0.0) ? 0.0 : 1.0 / p_.regularisation;
-        st.order_used = 0;
-      }
-    }
+    matrix Minv;
+    const bool lower = p_.fallback == degenerate_fallback::lower_order;
+    const detail::factor_result r = detail::factorise(
+        M, Order, [](int p) { return 1 + basis::size_at(p); }, 0, lower, p_.max_condition, p_.regularisation,
+        lower ? 1 : basis_size, Minv);
+    st.order_used = r.order;
+    st.condition = r.condition;
+    if (r.degenerate) st.flags |= flag::degenerate;
     // ĉ_j = Ĥ M̂⁻¹ w_j p̂_j (eq. 47 as weights).
     vector h;
     h[0] = 1.0;

@@ -14,7 +14,7 @@ namespace mpskit::op {
 
 /// What a degenerate neighbourhood falls back to (docs/operators.md "Degenerate neighbourhoods").
 enum class degenerate_fallback : std::uint8_t {
-  lower_order,  ///< the highest lower order whose moment block passes; if order 1 fails, regularised order 1
+  lower_order,  ///< the highest lower order whose moment block passes; if none, regularised lowest order
   regularise,   ///< the full order with M + δ I, δ = regularisation · max_k M_kk
 };
 
@@ -28,15 +28,15 @@ enum class neumann_form : std::uint8_t {
 struct lsmps_params {
   double re_ratio = 3.1;  ///< R_i = re_ratio · L_i (Tanaka eq. 27, R_e = 3.1)
   search::radius_rule rule = search::radius_rule::pair_mean;  ///< pair radius (Tanaka eq. 28: pair mean)
-  /// Degenerate test: column k of the LDLᵀ of M fails when its pivot d_k ≤ pivot_tolerance · max_{s≤k} M_ss
-  /// (so a flagged moment block has cond₂ ≥ 1/pivot_tolerance).
-  double pivot_tolerance = 1e-10;
+  /// Degenerate test: the moment matrix fails when an LDLᵀ pivot is singular to working precision or when
+  /// cond₁(M) = ‖M‖₁‖M⁻¹‖₁ > max_condition (derivative rounding grows like cond · 1e-15, docs/operators.md).
+  double max_condition = 1e8;
   degenerate_fallback fallback = degenerate_fallback::lower_order;  ///< what a failed test falls back to
   double regularisation = 1e-6;  ///< δ / max_k M_kk of the regularised fallback
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("lsmps_params");
-    v.positive("re_ratio", re_ratio).in_open_range("pivot_tolerance", pivot_tolerance, 0.0, 1.0);
+    v.positive("re_ratio", re_ratio).in_range("max_condition", max_condition, 1.0, 1e15);
     v.in_open_range("regularisation", regularisation, 0.0, 1.0);
     v.throw_if_any();
   }

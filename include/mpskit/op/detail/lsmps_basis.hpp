@@ -179,4 +179,75 @@ void ldlt_inverse(const Mat& F, int n, Out& out) {
   }
 }
 
+/// 1-norm condition number ‖A‖₁‖A⁻¹‖₁ of the leading n×n block (A: symmetric, lower triangle read;
+/// Ainv: full inverse of that block).
+template <class Mat, class Inv>
+double cond1(const Mat& A, const Inv& Ainv, int n) {
+  double na = 0.0, ni = 0.0;
+  for (int c = 0; c < n; ++c) {
+    double sa = 0.0, si = 0.0;
+    for (int r = 0; r < n; ++r) {
+      sa += std::abs(r >= c ? A(r, c) : A(c, r));
+      si += std::abs(Ainv(r, c));
+    }
+    na = std::max(na, sa);
+    ni = std::max(ni, si);
+  }
+  return na * ni;
+}
+
+/// Relative pivot guard of the LDLᵀ: a column whose pivot is ≤ 1e-14 · max_{s≤k} M_ss is singular to
+/// working precision (exactly dependent monomials, too few neighbours, an isolated particle).
+inline constexpr double singular_pivot = 1e-14;
+
+/// Outcome of `factorise`.
+struct factor_result {
+  int order = 0;           ///< exact order achieved (0: regularised or zero)
+  bool degenerate = false; ///< the full order was not used
+  double condition = 0.0;  ///< cond₁ of the matrix actually inverted (0 for a zero factor)
+};
+
+/// The degenerate test and fallback shared by LSMPS type A and B (docs/operators.md "Degenerate
+/// neighbourhoods"). M: lower triangle of the moment matrix over a basis whose leading `size_at(p)`
+/// columns are the order-p basis (p = 0..P). Test: the full order passes when its LDLᵀ has no singular
+/// pivot and cond₁(M) = ‖M‖₁‖M⁻¹‖₁ ≤ max_condition. Fallback `lower_order`: the highest lower order p ≥
+/// p_min whose leading block passes the same test; else (or with `regularise`) (M_n + δ I)⁻¹ on the
+/// leading n = regular_size block with δ = regularisation · max_k M_kk, or zero when M has no weight.
+/// `out` receives the inverse zero-padded to the full size.
+template <class Mat, class SizeAt>
+factor_result factorise(const Mat& M, int P, SizeAt size_at, int p_min, bool lower_order, double max_condition,
+                        double regularisation, int regular_size, Mat& out) {
+  factor_result res;
+  Mat F = M;
+  const int m = size_at(P);
+  const pivot_result r = ldlt_pivoted(F, m, singular_pivot);
+  for (int p = P; p >= p_min; --p) {
+    if (p < P && !lower_order) break;
+    const int k = size_at(p);
+    if (r.passed < k) continue;
+    ldlt_inverse(F, k, out);
+    const double c = cond1(M, out, k);
+    if (c <= max_condition) {
+      res.order = p;
+      res.degenerate = p < P;
+      res.condition = c;
+      return res;
+    }
+  }
+  res.degenerate = true;
+  out.setZero();
+  double mx = 0.0;
+  for (int k = 0; k < regular_size; ++k) mx = std::max(mx, M(k, k));
+  if (!(mx > 0.0) || !std::isfinite(mx)) return res;
+  F = M;
+  for (int k = 0; k < regular_size; ++k) F(k, k) += regularisation * mx;
+  if (ldlt_pivoted(F, regular_size, 0.0).passed == regular_size) {
+    ldlt_inverse(F, regular_size, out);
+    res.condition = cond1(M, out, regular_size);  // of the unshifted block against the shifted inverse: indicative
+  } else {
+    out.setZero();
+  }
+  return res;
+}
+
 }  // namespace mpskit::op::detail
