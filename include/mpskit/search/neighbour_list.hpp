@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/dimension.hpp"
@@ -55,6 +56,10 @@ class neighbour_list {
     dom_ = opt.dom;
     dom_.validate();
     periodic_ = dom_.any_periodic();
+    for (int a = 0; a < D; ++a) {
+      period_[a] = dom_.periodic[a] ? dom_.period(a) : 0.0;
+      half_period_[a] = 0.5 * period_[a];
+    }
     const double grow = 1.0 + opt.skin;
 
     // Build radii, validated per particle.
@@ -90,9 +95,12 @@ class neighbour_list {
     const std::vector<index_t>& order = cells_.order();
     xs_.resize(D, n);
     xw_.resize(D, periodic_ ? n : 0);
+    if constexpr (!R::uniform) rbs_.resize(static_cast<std::size_t>(n));
     for_each_particle(e, n, [&](index_t s) {
-      xs_.col(s) = x.col(order[static_cast<std::size_t>(s)]);
+      const index_t i = order[static_cast<std::size_t>(s)];
+      xs_.col(s) = x.col(i);
       if (periodic_) xw_.col(s) = dom_.wrap(xs_.col(s));
+      if constexpr (!R::uniform) rbs_[static_cast<std::size_t>(s)] = rb_[static_cast<std::size_t>(i)];
     });
 
     // Rows in fixed blocks (deterministic for any thread count), then one concatenation.
@@ -159,35 +167,59 @@ class neighbour_list {
   /// x_j − x_i with the minimum image on periodic axes (every operator reads displacements here).
   vec<D> displacement(const points<D>& x, index_t i, index_t j) const {
     vec<D> d = x.col(j) - x.col(i);
-    if (periodic_) dom_.minimum_image(d);
+    if (periodic_) minimum_image(d);
     return d;
   }
 
   /// Calls f(j, x_ij, r²) for the stored neighbours j of i inside support s (its radius model and
-  /// rule; r² < R_ij² with mpskit's inclusion rule). x must be the positions the consumer works on
-  /// (they may have moved within the skin since the build).
+  /// rule; r² < R_ij² with mpskit's inclusion rule), in stored order. x must be the positions the
+  /// consumer works on (they may have moved within the skin since the build); f must not modify them.
   template <RadiusModel R, class F>
   void for_each_neighbour(const points<D>& x, index_t i, const support<R>& s, F&& f) const {
-    const index_t b = offsets_[static_cast<std::size_t>(i)], end = offsets_[static_cast<std::size_t>(i + 1)];
+    // Branch-free compaction: the support test of a chunk of stored pairs writes every candidate into
+    // a small buffer and advances the fill count by (r² < R²); f then runs over the kept entries. The
+    // inclusion test of jittered shells near R is data-dependent, and as a branch it was mispredicted
+    // often enough to cost more than the pair arithmetic (docs/performance.md). Order of the calls,
+    // displacements and r² are exactly those of a plain loop, so results are bitwise unchanged.
+    constexpr index_t chunk = 64;
+    index_t b = offsets_[static_cast<std::size_t>(i)];
+    const index_t end = offsets_[static_cast<std::size_t>(i + 1)];
     const vec<D> xi = x.col(i);
+    [[maybe_unused]] double Ri = 0.0, R2u = 0.0;
     if constexpr (R::uniform) {
-      const double R0 = s.radius(i), R2 = R0 * R0;
-      for (index_t k = b; k < end; ++k) {
-        const index_t j = nbr_[static_cast<std::size_t>(k)];
-        vec<D> d = x.col(j) - xi;
-        if (periodic_) dom_.minimum_image(d);
-        const double r2 = d.squaredNorm();
-        if (within(r2, R2)) f(j, d, r2);
-      }
+      const double R0 = s.radius(i);
+      R2u = R0 * R0;
     } else {
-      const double Ri = s.radius(i);
-      for (index_t k = b; k < end; ++k) {
-        const index_t j = nbr_[static_cast<std::size_t>(k)];
+      Ri = s.radius(i);
+    }
+    neighbour_t bj[chunk];
+    double bd[chunk][D];
+    double br2[chunk];
+    while (b < end) {
+      const index_t e = std::min(end, b + chunk);
+      int m = 0;
+      for (index_t k = b; k < e; ++k) {
+        const neighbour_t j = nbr_[static_cast<std::size_t>(k)];
         vec<D> d = x.col(j) - xi;
-        if (periodic_) dom_.minimum_image(d);
+        if (periodic_) minimum_image(d);
         const double r2 = d.squaredNorm();
-        if (within(r2, pair_radius2(s.rule, Ri, s.radius(j)))) f(j, d, r2);
+        double R2;
+        if constexpr (R::uniform) {
+          R2 = R2u;
+        } else {
+          R2 = pair_radius2(s.rule, Ri, s.radius(j));
+        }
+        bj[m] = j;
+        for (int a = 0; a < D; ++a) bd[m][a] = d[a];
+        br2[m] = r2;
+        m += within(r2, R2) ? 1 : 0;
       }
+      for (int q = 0; q < m; ++q) {
+        vec<D> d;
+        for (int a = 0; a < D; ++a) d[a] = bd[q][a];
+        f(static_cast<index_t>(bj[q]), static_cast<const vec<D>&>(d), br2[q]);
+      }
+      b = e;
     }
   }
 
@@ -286,6 +318,8 @@ class neighbour_list {
         hi[a] = std::min(dims[a] - 1, c[a] + w[a]);
       }
     }
+    constexpr index_t chunk = 64;
+    index_t kept[chunk];
     // x-range segments.
     struct seg { int a, b; };
     std::array<seg, 3> segs{};
@@ -314,22 +348,33 @@ class neighbour_list {
         const index_t t0 = cells_.cell_begin(cells_.linear(cc));
         cc[0] = segs[q].b;
         const index_t t1 = cells_.cell_end(cells_.linear(cc));
-        for (index_t t = t0; t < t1; ++t) {
-          if (t == si) continue;
-          vec<D> d = xs_.col(t) - xi;
-          if (periodic_) dom_.minimum_image(d);
-          const double r2 = d.squaredNorm();
-          const index_t j = order[static_cast<std::size_t>(t)];
-          double R2;
-          if constexpr (R::uniform) {
-            R2 = R2u;
-          } else {
-            const double m = std::max(ri, rb_[static_cast<std::size_t>(j)]);
-            R2 = m * m;
+        // Branch-free compaction of the slot range (as in for_each_neighbour): the r < R test of
+        // jittered shells is data-dependent and cost more as a mispredicted branch than the test.
+        for (index_t t = t0; t < t1; t += chunk) {
+          const index_t te = std::min(t1, t + chunk);
+          int m = 0;
+          for (index_t u = t; u < te; ++u) {
+            vec<D> d = xs_.col(u) - xi;
+            if (periodic_) minimum_image(d);
+            const double r2 = d.squaredNorm();
+            double R2;
+            if constexpr (R::uniform) {
+              R2 = R2u;
+            } else {
+              const double mr = std::max(ri, rbs_[static_cast<std::size_t>(u)]);
+              R2 = mr * mr;
+            }
+            kept[m] = u;
+            m += static_cast<int>(within(r2, R2)) & static_cast<int>(u != si);
           }
-          if (!within(r2, R2) || !visible(i, j)) continue;
-          J.push_back(static_cast<neighbour_t>(j));
-          if (periodic_) S.push_back(shift_code(xw_.col(t) - xw_.col(si)));
+          for (int q = 0; q < m; ++q) {
+            const index_t u = kept[q];
+            const index_t j = order[static_cast<std::size_t>(u)];
+            if constexpr (!std::is_same_v<Visible, always_visible>)
+              if (!visible(i, j)) continue;
+            J.push_back(static_cast<neighbour_t>(j));
+            if (periodic_) S.push_back(shift_code(xw_.col(u) - xw_.col(si)));
+          }
         }
       }
       int a = 1;
@@ -342,6 +387,21 @@ class neighbour_list {
   }
 
   double uniform_r2() const { return ur2_; }
+
+  /// domain::minimum_image with a fast path, bitwise the same: for |d_a| < P/2, nearbyint(d_a/P) is ±0
+  /// and d_a − P·(±0) = d_a + 0 (which maps −0 to +0, as the full formula does); only the rare
+  /// components beyond half a period pay for the division and the libm nearbyint call.
+  void minimum_image(vec<D>& d) const {
+    for (int a = 0; a < D; ++a)
+      if (dom_.periodic[a]) {
+        if (std::abs(d[a]) < half_period_[a]) {
+          d[a] += 0.0;
+        } else {
+          const double P = period_[a];
+          d[a] -= P * std::nearbyint(d[a] / P);
+        }
+      }
+  }
 
   /// Shift id of a displacement between wrapped positions (each periodic component in (−P, P)).
   std::uint8_t shift_code(const vec<D>& dw) const {
@@ -358,8 +418,9 @@ class neighbour_list {
   bool periodic_ = false;
   bool uniform_window_ = true;
   std::array<int, D> w_{};
+  std::array<double, D> period_{}, half_period_{};  // periods (0 on open axes) and halves
   double ur2_ = 0.0;
-  std::vector<double> rb_, need_;
+  std::vector<double> rb_, rbs_, need_;  // build radii by particle, by sorted slot; window radius per cell
   points<D> xs_, xw_;
   std::vector<index_t> offsets_{0};
   std::vector<neighbour_t> nbr_;
