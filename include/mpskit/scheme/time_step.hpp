@@ -1,0 +1,99 @@
+#pragma once
+/// \file scheme/time_step.hpp
+/// \brief Δt = min(α_C min L/|u|, α_ν min L²/ν, Δt_max) (Tanaka 2018 eq. 64 — the extraction writes α_c,
+/// the Courant coefficient is α_C = 0.1 — plus a viscous limit, ARCHITECTURE.md §4), changed
+/// piecewise-constantly (Δt_max / 2^k, halved at once when the limit requires, doubled only with
+/// hysteresis) so the PPE source sees a steady Δt; or a fixed Δt that is refused when above the limit.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "mpskit/core/error.hpp"
+#include "mpskit/core/params.hpp"
+
+namespace mpskit::scheme {
+
+/// Adaptive (piecewise constant) or fixed Δt.
+enum class time_step_mode { adaptive, fixed };
+
+/// Numbers of the Δt controller.
+struct time_step_params {
+  time_step_mode mode = time_step_mode::adaptive;  ///< adaptive or fixed
+  double dt_max = 1e-3;      ///< largest Δt (s); the adaptive Δt is dt_max / 2^k
+  double dt_fixed = 0.0;     ///< Δt in fixed mode (s)
+  double courant = 0.1;      ///< α_C (Tanaka 2018 Table 2: 0.1)
+  double viscous = 0.1;      ///< α_ν in Δt ≤ α_ν L²/ν (our choice; the papers give none)
+  double hysteresis = 1.5;   ///< Δt doubles only when 2Δt ≤ limit / hysteresis
+  int hold_steps = 10;       ///< and only after this many steps at the current Δt
+  int max_halvings = 30;     ///< Δt below dt_max / 2^30 is a collapsed time step (error)
+  /// Throws mpskit::error listing every bad value.
+  void validate() const {
+    validator v("time_step_params");
+    v.positive("dt_max", dt_max).in_open_range("courant", courant, 0.0, 1.0).positive("viscous", viscous);
+    v.in_range("hysteresis", hysteresis, 1.0, 100.0).in_range("hold_steps", hold_steps, 0, 1e6);
+    v.in_range("max_halvings", max_halvings, 1, 60);
+    if (mode == time_step_mode::fixed) v.positive("dt_fixed", dt_fixed);
+    v.throw_if_any();
+  }
+};
+
+/// The controller's state (part of a checkpoint).
+struct time_step_state {
+  int halvings = 0;        ///< k in Δt = dt_max / 2^k
+  long held = 0;           ///< steps since the last change
+  long changes = 0;        ///< number of changes so far
+};
+
+/// Piecewise-constant Δt controller.
+class time_step_controller {
+ public:
+  explicit time_step_controller(const time_step_params& p) : p_(p) { p_.validate(); }
+
+  /// The limit min(α_C L/u_max, α_ν L²/ν, Δt_max) for spacing L, fastest speed u_max, viscosity ν.
+  double limit(double L, double u_max, double nu) const {
+    double lim = p_.dt_max;
+    if (u_max > 0.0) lim = std::min(lim, p_.courant * L / u_max);
+    if (nu > 0.0) lim = std::min(lim, p_.viscous * L * L / nu);
+    return lim;
+  }
+
+  /// Δt for the next step. Fixed mode: throws (naming step and the fastest particle) when above the
+  /// limit. Adaptive: halves as often as needed, doubles with hysteresis; throws when collapsed.
+  double next(double L, double u_max, double nu, long step, long fastest_particle) {
+    const double lim = limit(L, u_max, nu);
+    if (p_.mode == time_step_mode::fixed) {
+      if (p_.dt_fixed > lim)
+        fail("time step: fixed dt = ", p_.dt_fixed, " s exceeds the limit ", lim, " s at step ", step,
+             " (fastest particle ", fastest_particle, ", |u| = ", u_max, " m/s; Courant ", p_.courant,
+             ", viscous ", p_.viscous, ")");
+      return p_.dt_fixed;
+    }
+    const int before = s_.halvings;
+    while (dt() > lim) {
+      if (++s_.halvings > p_.max_halvings)
+        fail("time step collapsed at step ", step, ": limit ", lim, " s below dt_max / 2^", p_.max_halvings,
+             " (fastest particle ", fastest_particle, ", |u| = ", u_max, " m/s)");
+    }
+    if (s_.halvings == before && s_.halvings > 0 && s_.held >= p_.hold_steps &&
+        2.0 * dt() * p_.hysteresis <= lim)
+      --s_.halvings;
+    if (s_.halvings != before) {
+      s_.held = 0;
+      ++s_.changes;
+    } else {
+      ++s_.held;
+    }
+    return dt();
+  }
+
+  double dt() const { return p_.mode == time_step_mode::fixed ? p_.dt_fixed : std::ldexp(p_.dt_max, -s_.halvings); }  ///< current Δt
+  const time_step_state& state() const { return s_; }   ///< for checkpoints
+  void restore(const time_step_state& s) { s_ = s; }    ///< from a checkpoint
+  const time_step_params& params() const { return p_; } ///< the numbers
+
+ private:
+  time_step_params p_;
+  time_step_state s_{};
+};
+
+}  // namespace mpskit::scheme
