@@ -356,6 +356,28 @@ TEST_CASE("op: lsmps basis order and H = diag(α!/L^|α|)") {
   CHECK(B3::index_of(0, 0, 3) == 18);
 }
 
+using basis_2_1 = op::detail::lsmps_basis<2, 1>;
+using basis_2_2 = op::detail::lsmps_basis<2, 2>;
+using basis_2_3 = op::detail::lsmps_basis<2, 3>;
+using basis_3_1 = op::detail::lsmps_basis<3, 1>;
+using basis_3_2 = op::detail::lsmps_basis<3, 2>;
+using basis_3_3 = op::detail::lsmps_basis<3, 3>;
+TEST_CASE_TEMPLATE("op: the written-out basis equals the monomial table", B, basis_2_1, basis_2_2, basis_2_3, basis_3_1,
+                   basis_3_2, basis_3_3) {
+  std::mt19937_64 rng(test_seed());
+  std::uniform_real_distribution<double> U(-3.0, 3.0);
+  constexpr int D = B::dim;
+  for (int t = 0; t < 20; ++t) {
+    vec<D> x;
+    for (int a = 0; a < D; ++a) x[a] = U(rng);
+    typename B::vector p, q;
+    B::eval(x, p);
+    B::eval_table(x, q);
+    // the same monomials, products associated differently (x·z·z vs x·z²): equal to a few ulps
+    CHECK((p - q).norm() <= 4e-16 * q.norm());
+  }
+}
+
 // ======================================================================================================
 // Tanaka 2018 §5.1: two-size block, Table 1 quadratics
 // ======================================================================================================
