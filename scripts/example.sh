@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # README quick start, first command: installs what is missing, builds the main example optimised and
-# runs it; its output goes to out/ (arguments are passed to the example).
+# runs it (one thread unless OMP_NUM_THREADS is set); its output goes to out/dam_break/ (ParaView series,
+# front.csv, particles.png, front.png) and a summary is printed. Arguments go to the example (--full).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh
 jobs=$(nproc 2>/dev/null || echo 2)
 cmake -S . -B build/examples -DCMAKE_BUILD_TYPE=Release -DMPSKIT_BUILD_TESTS=OFF >/dev/null
-cmake --build build/examples -j "$jobs" --target neighbour_demo
+cmake --build build/examples -j "$jobs" --target dam_break
 mkdir -p out
-./build/examples/neighbour_demo "$@"
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} ./build/examples/dam_break --out out/dam_break "$@"

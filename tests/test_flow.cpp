@@ -22,21 +22,41 @@ std::vector<cases::front_series> front_data() {
 
 TEST_SUITE("hydrostatic") {
   TEST_CASE("hydrostatic: 2D tank, time-averaged pressure against rho g d, wall particles included") {
-    cases::hydrostatic_config<2> cfg;  // H = W = 0.1 m, l0 = H/20, averaged over [20, 40] sqrt(H/g)
+    cases::hydrostatic_config<2> cfg;  // H = W = 0.1 m, averaged over [20, 40] sqrt(H/g)
+    cfg.l0 = cfg.depth / 40;
+    cfg.params.time.dt_max = 1e-3;
     const auto r = cases::run_hydrostatic<defaults<2>>(cfg);
     MESSAGE("2D: max bin error " << r.max_bin_error << " rho g H; RMS speed " << r.rms_speed << ", max "
                                  << r.max_speed << " sqrt(gH); " << r.steps << " steps, " << r.wall_seconds << " s");
-    // Reference: p = rho g d (validation-cases.md D3). Measured 0.025 at l0 = H/20 (a near-uniform offset
-    // of about +0.4 l0 rho g: p = 0 sits at the surface particles' centres); the 2 % is met only
-    // at finer spacing, so the CI size asserts 3 % (docs/solver.md).
-    CHECK(r.max_bin_error < 0.03);
-    // Residual motion: measured RMS 0.041, max 0.137 sqrt(gH) (the classic scheme's surface noise; the
-    // issue's 1e-3 / 1e-2 are not reached — docs/solver.md). Bounds with ~50 % margin catch a drift.
-    CHECK(r.rms_speed < 0.06);
-    CHECK(r.max_speed < 0.25);
+    // Reference p = rho g d (validation-cases.md D3), the 2 % per bin below the top two layers.
+    // Measured 0.0168 at l0 = H/40 (0.025 at H/20: a near-uniform offset of about +0.4 l0 rho g).
+    CHECK(r.max_bin_error < 0.02);
+    // Residual motion: measured RMS 0.033, max 0.104 sqrt(gH) — the classic scheme's free-surface noise,
+    // far above the 1e-3 / 1e-2 (docs/solver.md). Bounds with ~50 % margin catch a drift.
+    CHECK(r.rms_speed < 0.05);
+    CHECK(r.max_speed < 0.2);
     CHECK(r.min_fluid_height > 0.0);   // nothing through the bottom wall
     CHECK(r.max_fluid_offset <= 0.0);  // nothing through a side wall
     CHECK(r.fluid_end == r.fluid);     // particle count conserved
+  }
+
+  TEST_CASE("hydrostatic: 3D tank at CI size") {
+    cases::hydrostatic_config<3> cfg;
+    cfg.depth = 0.05;
+    cfg.width = 0.03;
+    cfg.l0 = cfg.depth / 10;
+    cfg.params.time.dt_max = 1e-3;
+    const auto r = cases::run_hydrostatic<defaults<3>>(cfg);
+    MESSAGE("3D: max bin error " << r.max_bin_error << " rho g H; RMS speed " << r.rms_speed << ", max "
+                                 << r.max_speed << " sqrt(gH); " << r.steps << " steps, " << r.wall_seconds << " s");
+    // Measured 0.0418 at l0 = H/10 (the same +0.4 l0 rho g offset, relative to a 10-layer column). The
+    // issue's 2 % needs l0 <= H/20, about 8x the CI cost: asserted 5 % here, a documented deviation.
+    CHECK(r.max_bin_error < 0.05);
+    CHECK(r.rms_speed < 0.07);  // measured 0.047
+    CHECK(r.max_speed < 0.25);  // measured 0.134
+    CHECK(r.min_fluid_height > 0.0);
+    CHECK(r.max_fluid_offset <= 0.0);
+    CHECK(r.fluid_end == r.fluid);
   }
 }
 

@@ -98,9 +98,15 @@ double front_position(const Sim& sim) {
   return front;
 }
 
-/// Runs the dam break with Scene (2D).
-template <class Scene>
-dam_break_result run_dam_break(dam_break_config cfg) {
+/// Does nothing after a step.
+struct no_observer {
+  template <class Sim>
+  void operator()(const Sim&) const {}
+};
+
+/// Runs the dam break with Scene (2D); observer(sim) is called after every step.
+template <class Scene, class Observer = no_observer>
+dam_break_result run_dam_break(dam_break_config cfg, Observer&& observer = {}) {
   static_assert(Scene::dim == 2, "mpskit: the Koshizuka & Oka dam break is 2D");
   cfg.params.l0 = cfg.l0;
   const double g = -cfg.params.g[1];
@@ -123,6 +129,7 @@ dam_break_result run_dam_break(dam_break_config cfg) {
       r.Z.push_back(front_position(s) / cfg.a);
       next += cfg.sample_dT;
     }
+    observer(s);
   });
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& st = sim.state();
