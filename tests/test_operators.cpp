@@ -30,6 +30,26 @@ static_assert(!op::GradientStencil<int, 2>);
 static_assert(op::RowBuilder<op::row_value> && op::RowBuilder<op::row_entries> && !op::RowBuilder<int>);
 static_assert(op::SizeModel<op::uniform_size> && op::SizeModel<op::per_particle_size> && !op::SizeModel<int>);
 static_assert(op::RowContribution<op::no_contribution, op::lsmps_a<2, 2>::row_view, op::row_entries>);
+// Archetypes of the op/ concepts (the least a type must offer), checked here.
+namespace archetype {
+struct row_builder {
+  void add(index_t, double) {}
+  void add_diagonal(double) {}
+  void add_constant(double) {}
+};
+struct size_model {
+  static constexpr bool uniform = true;
+  double operator()(index_t) const { return 1.0; }
+};
+struct hook {
+  template <class Row, class B>
+  void operator()(index_t, const Row&, B&) const {}
+};
+}  // namespace archetype
+static_assert(op::RowBuilder<archetype::row_builder> && op::SizeModel<archetype::size_model>);
+static_assert(op::RowContribution<archetype::hook, op::mps<2>::row_view, archetype::row_builder>);
+static_assert(!op::RowContribution<int, op::mps<2>::row_view, archetype::row_builder>);
+
 static_assert(op::detail::basis_size(2, 1) == 2 && op::detail::basis_size(2, 2) == 5 &&
               op::detail::basis_size(2, 3) == 9);
 static_assert(op::detail::basis_size(3, 1) == 3 && op::detail::basis_size(3, 2) == 9 &&
