@@ -71,8 +71,8 @@ struct setup {
 };
 
 void per_particle(benchmark::State& st, index_t n) {
-  st.counters["per_particle"] = benchmark::Counter(double(n), benchmark::Counter::kIsIterationInvariantRate |
-                                                                  benchmark::Counter::kInvert);
+  st.counters["per_particle"] = benchmark::Counter(
+      double(n), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   st.counters["n"] = double(n);
 }
 
@@ -113,7 +113,8 @@ void bm_lsmps_laplacian_row(benchmark::State& st) {
   for (auto _ : st) {
     double acc = 0.0;
     for (index_t i = 0; i < s.x.cols(); ++i)
-      A.for_each_row_weight(s.x, s.nl, i, sel, op::all_neighbours{}, [&](index_t j, double a) { acc += a * s.phi[j]; });
+      A.for_each_row_weight(s.x, s.nl, i, sel, op::all_neighbours{},
+                            [&](index_t j, double a) { acc += a * s.phi[j]; });
     benchmark::DoNotOptimize(acc);
   }
   per_particle(st, s.x.cols());
@@ -137,7 +138,8 @@ void bm_mps_grad_lap(benchmark::State& st) {
   op::mps<D> M(op::mps_params{s.h});
   for (auto _ : st) {
     double acc = 0.0;
-    for (index_t i = 0; i < s.x.cols(); ++i) acc += M.laplacian(s.x, s.nl, i, s.phi) + M.gradient(s.x, s.nl, i, s.phi)[0];
+    for (index_t i = 0; i < s.x.cols(); ++i)
+      acc += M.laplacian(s.x, s.nl, i, s.phi) + M.gradient(s.x, s.nl, i, s.phi)[0];
     benchmark::DoNotOptimize(acc);
   }
   per_particle(st, s.x.cols());
@@ -223,7 +225,9 @@ vec<D> fgrad(const vec<D>& p) {
   return g;
 }
 template <int D>
-double flap(const vec<D>& p) { return -double(D) * fval<D>(p); }
+double flap(const vec<D>& p) {
+  return -double(D) * fval<D>(p);
+}
 
 template <int D, class GradLap>
 field_errors<D> errors_on(const points<D>& x, double h, double box, GradLap&& gl) {
@@ -250,8 +254,9 @@ void accuracy_table(double h) {
   nl.build(exec::seq{}, x, search::uniform_radius{3.1 * h});
   Eigen::VectorXd phi(x.cols());
   for (index_t i = 0; i < x.cols(); ++i) phi[i] = fval<D>(x.col(i));
-  std::printf("\n%dD, h = %g (%ld particles), RMS error of f = sin x cos y%s, particles >= 3.1 h from the edge\n", D, h,
-              (long)x.cols(), D == 3 ? " cos z" : "");
+  std::printf(
+      "\n%dD, h = %g (%ld particles), RMS error of f = sin x cos y%s, particles >= 3.1 h from the edge\n", D,
+      h, (long)x.cols(), D == 3 ? " cos z" : "");
   std::printf("| operator | grad RMS | Laplacian RMS |\n|---|---|---|\n");
   for (auto norm : {op::mps_normalisation::reference_lattice, op::mps_normalisation::per_particle}) {
     op::mps_params p{h};
@@ -263,16 +268,19 @@ void accuracy_table(double h) {
     const auto ec = errors_on<D>(x, h, box, [&](index_t i) {
       return std::pair<vec<D>, double>(M.corrected_gradient(x, nl, i, phi), 0.0);
     });
-    std::printf("| mps (%s n0/lambda) | %.3e | %.3e |\n", norm == op::mps_normalisation::per_particle ? "per-particle" : "lattice",
-                e.grad, e.lap);
-    if (norm == op::mps_normalisation::reference_lattice) std::printf("| mps corrected-matrix gradient | %.3e | - |\n", ec.grad);
+    std::printf("| mps (%s n0/lambda) | %.3e | %.3e |\n",
+                norm == op::mps_normalisation::per_particle ? "per-particle" : "lattice", e.grad, e.lap);
+    if (norm == op::mps_normalisation::reference_lattice)
+      std::printf("| mps corrected-matrix gradient | %.3e | - |\n", ec.grad);
   }
   auto lsmps = [&]<int P>() {
     op::lsmps_a<D, P> A;
     A.compute(exec::seq{}, x, nl, op::uniform_size{h});
     const auto e = errors_on<D>(x, h, box, [&](index_t i) { return A.gradient_laplacian(x, nl, i, phi); });
-    if (P == 1) std::printf("| lsmps_a order 1 | %.3e | (none) |\n", e.grad);
-    else std::printf("| lsmps_a order %d | %.3e | %.3e |\n", P, e.grad, e.lap);
+    if (P == 1)
+      std::printf("| lsmps_a order 1 | %.3e | (none) |\n", e.grad);
+    else
+      std::printf("| lsmps_a order %d | %.3e | %.3e |\n", P, e.grad, e.lap);
   };
   lsmps.template operator()<1>();
   lsmps.template operator()<2>();
@@ -284,14 +292,20 @@ void accuracy_table(double h) {
 /// least 3.1 s from the block's top and bottom edges (so only the size jump is measured) of
 /// |computed − exact| / max |exact| over the block, per operator, max over the ten functions.
 void tanaka_table() {
-  constexpr double table1[10][6] = {
-      {-9.97681, -5.28855, 2.96304, -8.51253, -4.59517, -2.79946}, {-4.89425, 9.70580, -3.62163, 8.68465, -6.42750, 7.15140},
-      {-9.30296, -9.82849, 2.53517, -0.28230, -4.54024, 6.04358},  {-8.17072, -1.03977, 2.80313, 9.46532, 3.21757, 5.81225},
-      {1.26560, -9.19248, 7.62810, -8.63277, -4.06415, 9.70153},   {-8.50703, -9.63988, -9.48729, 1.34495, 0.31953, 2.96243},
-      {4.41145, -2.29896, -2.39723, -9.47081, 8.02606, -5.80187},  {7.22648, 0.91769, 9.28587, 2.56386, -2.54616, 8.98923},
-      {-5.37461, 0.41658, -5.34349, 7.94733, -2.50526, -1.75695},  {4.88571, -2.88980, -2.47475, -5.61998, -8.57723, 1.75817}};
-  std::printf("\nTanaka 2018 §5.1, two-size block: max normalised error at the interface particles (|x| < 3.1 s, 3.1 s < y < 24 - 3.1 s), "
-              "max over the ten Table 1 functions\n");
+  constexpr double table1[10][6] = {{-9.97681, -5.28855, 2.96304, -8.51253, -4.59517, -2.79946},
+                                    {-4.89425, 9.70580, -3.62163, 8.68465, -6.42750, 7.15140},
+                                    {-9.30296, -9.82849, 2.53517, -0.28230, -4.54024, 6.04358},
+                                    {-8.17072, -1.03977, 2.80313, 9.46532, 3.21757, 5.81225},
+                                    {1.26560, -9.19248, 7.62810, -8.63277, -4.06415, 9.70153},
+                                    {-8.50703, -9.63988, -9.48729, 1.34495, 0.31953, 2.96243},
+                                    {4.41145, -2.29896, -2.39723, -9.47081, 8.02606, -5.80187},
+                                    {7.22648, 0.91769, 9.28587, 2.56386, -2.54616, 8.98923},
+                                    {-5.37461, 0.41658, -5.34349, 7.94733, -2.50526, -1.75695},
+                                    {4.88571, -2.88980, -2.47475, -5.61998, -8.57723, 1.75817}};
+  std::printf(
+      "\nTanaka 2018 §5.1, two-size block: max normalised error at the interface particles (|x| < 3.1 s, 3.1 "
+      "s < y < 24 - 3.1 s), "
+      "max over the ten Table 1 functions\n");
   std::printf("| s | operator | df/dx | df/dy | Laplacian |\n|---|---|---|---|---|\n");
   for (double s : {1.0, 1.5, 2.0, 2.5, 3.0}) {
     std::vector<vec<2>> pts;
@@ -330,7 +344,8 @@ void tanaka_table() {
         const double lap = 2 * c[0] + 2 * c[1];
         for (index_t i = 0; i < x.cols(); ++i) {
           const double X = x(0, i), Y = x(1, i);
-          if (!(std::abs(X) < 3.1 * s && Y > 3.1 * s && Y < 24.0 - 3.1 * s)) continue;  // interface, full support
+          if (!(std::abs(X) < 3.1 * s && Y > 3.1 * s && Y < 24.0 - 3.1 * s))
+            continue;  // interface, full support
           const auto [g, l] = gl(i, phi);
           ex = std::max(ex, std::abs(g[0] - (2 * c[0] * X + c[2] * Y + c[3])) / gx);
           ey = std::max(ey, std::abs(g[1] - (2 * c[1] * Y + c[2] * X + c[4])) / gy);
@@ -344,9 +359,10 @@ void tanaka_table() {
       p.rule = rule;
       op::mps<2> M(p);
       M.set_sizes(&L);
-      run(rule == search::radius_rule::own ? "mps (own radius)" : "mps (pair-mean radius)", [&](index_t i, const Eigen::VectorXd& phi) {
-        return std::pair<vec<2>, double>(M.gradient(x, nl, i, phi), M.laplacian(x, nl, i, phi));
-      });
+      run(rule == search::radius_rule::own ? "mps (own radius)" : "mps (pair-mean radius)",
+          [&](index_t i, const Eigen::VectorXd& phi) {
+            return std::pair<vec<2>, double>(M.gradient(x, nl, i, phi), M.laplacian(x, nl, i, phi));
+          });
       if (rule == search::radius_rule::pair_mean) {
         p.normalisation = op::mps_normalisation::per_particle;
         op::mps<2> Mp(p);
@@ -355,13 +371,15 @@ void tanaka_table() {
           return std::pair<vec<2>, double>(Mp.gradient(x, nl, i, phi), Mp.laplacian(x, nl, i, phi));
         });
         run("mps corrected gradient / mass-weighted Laplacian", [&](index_t i, const Eigen::VectorXd& phi) {
-          return std::pair<vec<2>, double>(M.corrected_gradient(x, nl, i, phi), M.mass_weighted_laplacian(x, nl, i, phi));
+          return std::pair<vec<2>, double>(M.corrected_gradient(x, nl, i, phi),
+                                           M.mass_weighted_laplacian(x, nl, i, phi));
         });
       }
     }
     op::lsmps_a<2, 2> A;
     A.compute(exec::seq{}, x, nl, op::per_particle_size{&L});
-    run("lsmps_a order 2", [&](index_t i, const Eigen::VectorXd& phi) { return A.gradient_laplacian(x, nl, i, phi); });
+    run("lsmps_a order 2",
+        [&](index_t i, const Eigen::VectorXd& phi) { return A.gradient_laplacian(x, nl, i, phi); });
   }
 }
 

@@ -35,7 +35,6 @@ concept GradientStencil = requires(const Op& op, const points<D>& x, const searc
   op.for_each_gradient_weight(x, nl, i, all_neighbours{}, [](index_t, const vec<D>&) {});
 };
 
-
 /// One particle diameter (or spacing) for every particle: L_i = L (single resolution).
 struct uniform_size {
   static constexpr bool uniform = true;
@@ -76,7 +75,9 @@ concept RowBuilder = requires(B& b, index_t j, double a) {
 /// displacement d); the hook may add weights to existing columns, a constant, and diagonal terms through
 /// `builder` (Neumann constraint, ERP mirror sums, dummy-particle pressures).
 template <class H, class Row, class B>
-concept RowContribution = RowBuilder<B> && requires(const H& h, index_t i, const Row& row, B& b) { h(i, row, b); };
+concept RowContribution = RowBuilder<B> && requires(const H& h, index_t i, const Row& row, B& b) {
+  h(i, row, b);
+};
 
 /// The hook that adds nothing.
 struct no_contribution {

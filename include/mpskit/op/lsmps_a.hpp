@@ -31,22 +31,21 @@ namespace mpskit::op {
 /// \brief LSMPS type A of order Order (1–3) with kernel K (Tanaka eq. 29 by default).
 /// Precondition of every stencil/application call: the x, list, sizes and filter of the last `compute`.
 template <int D, int Order, Kernel K = kernel::quadratic>
-  requires Dimension<D> && (Order >= 1 && Order <= 3)
-class lsmps_a final {
+requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
  public:
   using basis = detail::lsmps_basis<D, Order>;
-  static constexpr int dim = D;                ///< spatial dimension
-  static constexpr int order = Order;          ///< polynomial order
+  static constexpr int dim = D;                   ///< spatial dimension
+  static constexpr int order = Order;             ///< polynomial order
   static constexpr int basis_size = basis::size;  ///< m = 2/5/9 (2D), 3/9/19 (3D)
   using kernel_type = K;
-  using vector = Eigen::Matrix<double, basis_size, 1>;            ///< a row over D_x (eq. 42 order)
+  using vector = Eigen::Matrix<double, basis_size, 1>;           ///< a row over D_x (eq. 42 order)
   using matrix = Eigen::Matrix<double, basis_size, basis_size>;  ///< a moment matrix or its inverse
 
   /// Row view handed to a row-contribution hook (op/concepts.hpp).
   struct row_view {
-    vector lhat;             ///< selᵀ H_i M_i⁻¹: the row's functional over weighted basis vectors
-    vector neumann;          ///< w(0) q_i of the Neumann constraint (zero when i is unconstrained)
-    double L = 0.0;          ///< L_i
+    vector lhat;               ///< selᵀ H_i M_i⁻¹: the row's functional over weighted basis vectors
+    vector neumann;            ///< w(0) q_i of the Neumann constraint (zero when i is unconstrained)
+    double L = 0.0;            ///< L_i
     bool constrained = false;  ///< i carries the Neumann constraint
     /// Weight the row gives a virtual neighbour whose weighted basis vector is v (w p(x/L_i)).
     double weight(const vector& v) const { return lhat.dot(v); }
@@ -70,17 +69,19 @@ class lsmps_a final {
   template <Execution E, SizeModel S, class Filter = all_neighbours>
   void compute(E e, const points<D>& x, const search::neighbour_list<D>& nl, const S& size,
                const neumann_constraint<D>& nc, const Filter& filter = {}) {
-    static_assert(K::finite_at_zero,
-                  "mpskit: the Neumann-constrained LSMPS needs w(0) (Tanaka eq. 86): use a kernel finite at zero");
-    if (!nc.normal || !nc.constrained) fail("lsmps_a: neumann_constraint needs both `normal` and `constrained`");
+    static_assert(
+        K::finite_at_zero,
+        "mpskit: the Neumann-constrained LSMPS needs w(0) (Tanaka eq. 86): use a kernel finite at zero");
+    if (!nc.normal || !nc.constrained)
+      fail("lsmps_a: neumann_constraint needs both `normal` and `constrained`");
     if (nc.normal->cols() != x.cols() || static_cast<index_t>(nc.constrained->size()) != x.cols())
-      fail("lsmps_a: neumann_constraint arrays have ", nc.normal->cols(), " normals and ", nc.constrained->size(),
-           " marks for ", x.cols(), " particles");
+      fail("lsmps_a: neumann_constraint arrays have ", nc.normal->cols(), " normals and ",
+           nc.constrained->size(), " marks for ", x.cols(), " particles");
     compute_impl(e, x, nl, size, &nc, filter);
   }
 
-  index_t size() const { return n_; }                                  ///< particles of the last compute
-  const std::vector<flag::type>& flags() const { return flags_; }      ///< flag::degenerate per particle
+  index_t size() const { return n_; }                              ///< particles of the last compute
+  const std::vector<flag::type>& flags() const { return flags_; }  ///< flag::degenerate per particle
   /// Exact order achieved at i: Order, a lower order (fallback), or 0 (regularised or isolated).
   int order_used(index_t i) const { return order_[static_cast<std::size_t>(i)]; }
   /// cond₁ = ‖M‖₁‖M⁻¹‖₁ of the moment block used at i (after a fallback: of the lower-order block; when
@@ -96,18 +97,19 @@ class lsmps_a final {
   Eigen::Map<const matrix> inverse_moments(index_t i) const {
     return Eigen::Map<const matrix>(factors_.data() + static_cast<std::size_t>(i) * msq);
   }
-  double diameter(index_t i) const { return L_ ? (*L_)[i] : l_; }     ///< L_i
-  double re(index_t i) const { return p_.re_ratio * diameter(i); }    ///< R_i = re_ratio · L_i
+  double diameter(index_t i) const { return L_ ? (*L_)[i] : l_; }   ///< L_i
+  double re(index_t i) const { return p_.re_ratio * diameter(i); }  ///< R_i = re_ratio · L_i
 
   /// M_i recomputed (eq. 44, + N_i when constrained; full symmetric) — a diagnostic, not the stored factor.
   template <class Filter = all_neighbours>
-  matrix moments(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter = {}) const {
+  matrix moments(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                 const Filter& filter = {}) const {
     matrix M = moment_lower(x, nl, i, filter);
     return M.template selfadjointView<Eigen::Lower>();
   }
 
-  static vector gradient_selector(int a) { return basis::gradient_selector(a); }       ///< ∂/∂x_a
-  static vector laplacian_selector() { return basis::laplacian_selector(); }           ///< ∇²
+  static vector gradient_selector(int a) { return basis::gradient_selector(a); }  ///< ∂/∂x_a
+  static vector laplacian_selector() { return basis::laplacian_selector(); }      ///< ∇²
   static vector directional_selector(const vec<D>& n) { return basis::directional_selector(n); }  ///< n·∇
   /// Index of ∂^α in D_x (e.g. derivative_index(1, 1) = ∂²/∂x∂y); −1 if beyond the order.
   static constexpr int derivative_index(int ax, int ay, int az = 0) { return basis::index_of(ax, ay, az); }
@@ -127,8 +129,8 @@ class lsmps_a final {
 
   /// Calls f(j, a_ij) for the combination `sel` of D_x (e.g. laplacian_selector()).
   template <class Filter, class F>
-  void for_each_row_weight(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const vector& sel,
-                           const Filter& filter, F&& f) const {
+  void for_each_row_weight(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                           const vector& sel, const Filter& filter, F&& f) const {
     const vector lhat = functional(i, sel);
     vector pv;
     sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
@@ -159,7 +161,7 @@ class lsmps_a final {
 
   /// Emits row i of the combination `sel` into a RowBuilder, then calls hook(i, row_view, builder).
   template <class Filter, class B, class Hook = no_contribution>
-    requires RowBuilder<B>
+  requires RowBuilder<B>
   void build_row(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const vector& sel,
                  const Filter& filter, B& builder, const Hook& hook = {}) const {
     row_view rv = view(i, sel);
@@ -185,7 +187,8 @@ class lsmps_a final {
     return rv;
   }
 
-  /// All derivatives ⟨D_x φ⟩_i (eq. 41); with `dfdn`, constrained particles add the Neumann term c_i (eq. 87).
+  /// All derivatives ⟨D_x φ⟩_i (eq. 41); with `dfdn`, constrained particles add the Neumann term c_i (eq.
+  /// 87).
   template <class Filter = all_neighbours>
   vector derivatives(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                      const Eigen::Ref<const Eigen::VectorXd>& phi, const Filter& filter = {},
@@ -212,15 +215,15 @@ class lsmps_a final {
 
   /// ⟨∇²φ⟩_i for an Eigen::VectorXd (exact match: a VectorXd also converts to points<D>).
   template <class Filter = all_neighbours>
-  double laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Eigen::VectorXd& phi,
-                   const Filter& filter = {}) const {
+  double laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                   const Eigen::VectorXd& phi, const Filter& filter = {}) const {
     return laplacian(x, nl, i, Eigen::Ref<const Eigen::VectorXd>(phi), filter);
   }
 
   /// ⟨∇φ⟩_i and ⟨∇²φ⟩_i from one neighbour sweep (the projection step's pair).
   template <class Filter = all_neighbours>
-  std::pair<vec<D>, double> gradient_laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
-                                               const Eigen::Ref<const Eigen::VectorXd>& phi,
+  std::pair<vec<D>, double> gradient_laplacian(const points<D>& x, const search::neighbour_list<D>& nl,
+                                               index_t i, const Eigen::Ref<const Eigen::VectorXd>& phi,
                                                const Filter& filter = {}) const {
     const vector b = moment_vector(x, nl, i, phi, filter);
     const Eigen::Map<const matrix> Mi = inverse_moments(i);
@@ -266,9 +269,7 @@ class lsmps_a final {
     return inverse_moments(i).transpose() * hs;
   }
 
-  bool is_constrained(index_t i) const {
-    return nc_normal_ && (*nc_mark_)[static_cast<std::size_t>(i)] != 0;
-  }
+  bool is_constrained(index_t i) const { return nc_normal_ && (*nc_mark_)[static_cast<std::size_t>(i)] != 0; }
 
   /// w(0) q_i: the constraint row (Tanaka eqs. 86–87; `derivative` reading: linear entries of p(−n)).
   vector neumann_vector(index_t i) const {
@@ -281,7 +282,8 @@ class lsmps_a final {
 
   /// Calls f(j, w_ij, x_ij / L_i) for accepted neighbours with w_ij > 0 (Tanaka eqs. 28–29 radius).
   template <class Filter, class F>
-  void sweep(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter, F&& f) const {
+  void sweep(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter,
+             F&& f) const {
     if (!L_) {
       const double R = p_.re_ratio * l_, Linv = 1.0 / l_;
       nl.for_each_neighbour(x, i, search::support<search::uniform_radius>{{R}, p_.rule},
@@ -295,7 +297,8 @@ class lsmps_a final {
       nl.for_each_neighbour(x, i, search::support<search::per_particle_radius>{{L_, p_.re_ratio}, p_.rule},
                             [&](index_t j, const vec<D>& d, double r2) {
                               if (!filter(j)) return;
-                              const double Rij = std::sqrt(search::pair_radius2(p_.rule, Ri, p_.re_ratio * (*L_)[j]));
+                              const double Rij =
+                                  std::sqrt(search::pair_radius2(p_.rule, Ri, p_.re_ratio * (*L_)[j]));
                               const double w = K::w(std::sqrt(r2), Rij);
                               if (w != 0.0) f(j, w, vec<D>(d * Linv));
                             });
@@ -318,7 +321,8 @@ class lsmps_a final {
   /// B_i = Σ_j w_ij p(x_ij/L_i) (u_j − u_i)ᵀ (eq. 45 per component).
   template <class Filter>
   Eigen::Matrix<double, basis_size, D> moment_matrix(const points<D>& x, const search::neighbour_list<D>& nl,
-                                                     index_t i, const points<D>& u, const Filter& filter) const {
+                                                     index_t i, const points<D>& u,
+                                                     const Filter& filter) const {
     Eigen::Matrix<double, basis_size, D> B = Eigen::Matrix<double, basis_size, D>::Zero();
     vector pv;
     const vec<D> ui = u.col(i);
@@ -336,7 +340,8 @@ class lsmps_a final {
     const index_t n = x.cols();
     if (nl.rows() != n) fail("lsmps_a: the neighbour list has ", nl.rows(), " rows for ", n, " particles");
     if constexpr (S::uniform) {
-      if (!(std::isfinite(size.L) && size.L > 0.0)) fail("lsmps_a: diameter L = ", size.L, ": must be a finite number > 0");
+      if (!(std::isfinite(size.L) && size.L > 0.0))
+        fail("lsmps_a: diameter L = ", size.L, ": must be a finite number > 0");
       L_ = nullptr;
       l_ = size.L;
     } else {
@@ -360,7 +365,8 @@ class lsmps_a final {
 
   /// Lower triangle of M_i (eq. 44) + N_i (eq. 86) when constrained.
   template <class Filter>
-  matrix moment_lower(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter) const {
+  matrix moment_lower(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                      const Filter& filter) const {
     // Two phases per chunk of neighbours: gather (w, x_ij/L) from the sweep, then accumulate the packed lower
     // triangle in a tight loop whose accumulators stay in registers (accumulating inside the sweep's
     // callback kept them in memory: ~2× the instructions). Summation order is the neighbour order either way.
@@ -412,7 +418,8 @@ class lsmps_a final {
     matrix inv;
     const detail::factor_result r = detail::factorise(
         M, Order, [](int p) { return basis::size_at(p); }, 1, p_.fallback == degenerate_fallback::lower_order,
-        p_.max_condition, p_.regularisation, p_.fallback == degenerate_fallback::lower_order ? D : basis_size, inv);
+        p_.max_condition, p_.regularisation, p_.fallback == degenerate_fallback::lower_order ? D : basis_size,
+        inv);
     Eigen::Map<matrix>(factors_.data() + static_cast<std::size_t>(i) * msq) = inv;
     if (r.degenerate) flags_[static_cast<std::size_t>(i)] |= flag::degenerate;
     order_[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(r.order);

@@ -25,29 +25,29 @@ namespace mpskit::op {
 
 /// \brief LSMPS type B of order Order (1–3) with kernel K.
 template <int D, int Order, Kernel K = kernel::quadratic>
-  requires Dimension<D> && (Order >= 1 && Order <= 3)
-class lsmps_b final {
-  static_assert(K::finite_at_zero,
-                "mpskit: LSMPS type B evaluates w at r = 0 when the point is a particle: use a kernel finite at zero");
+requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_b final {
+  static_assert(
+      K::finite_at_zero,
+      "mpskit: LSMPS type B evaluates w at r = 0 when the point is a particle: use a kernel finite at zero");
 
  public:
   using basis = detail::lsmps_basis<D, Order>;
-  static constexpr int dim = D;                         ///< spatial dimension
-  static constexpr int order = Order;                   ///< polynomial order
-  static constexpr int basis_size = basis::size + 1;    ///< m̂ = m + 1 (the constant)
+  static constexpr int dim = D;                       ///< spatial dimension
+  static constexpr int order = Order;                 ///< polynomial order
+  static constexpr int basis_size = basis::size + 1;  ///< m̂ = m + 1 (the constant)
   using kernel_type = K;
   using vector = Eigen::Matrix<double, basis_size, 1>;  ///< [value, D_x] (eq. 48 order)
   using matrix = Eigen::Matrix<double, basis_size, basis_size>;
 
   /// The weights of one point: ⟨D̂φ⟩(x) = Σ_k c_k φ_{j_k}.
   struct point_stencil {
-    vec<D> x = vec<D>::Zero();      ///< the point
-    double l = 0.0;                 ///< its diameter
-    int order_used = 0;             ///< exact order achieved (0: weighted average, regularised, or nothing)
-    flag::type flags = 0;           ///< flag::degenerate when the fit fell back
-    double condition = 0.0;         ///< cond₁ of the block of M̂ used (as lsmps_a::condition)
-    std::vector<index_t> columns;   ///< particles with weight
-    std::vector<vector> weights;    ///< ĉ_j per column (value, then D_x)
+    vec<D> x = vec<D>::Zero();     ///< the point
+    double l = 0.0;                ///< its diameter
+    int order_used = 0;            ///< exact order achieved (0: weighted average, regularised, or nothing)
+    flag::type flags = 0;          ///< flag::degenerate when the fit fell back
+    double condition = 0.0;        ///< cond₁ of the block of M̂ used (as lsmps_a::condition)
+    std::vector<index_t> columns;  ///< particles with weight
+    std::vector<vector> weights;   ///< ĉ_j per column (value, then D_x)
     /// [value, D_x φ] at the point.
     vector apply(const Eigen::Ref<const Eigen::VectorXd>& phi) const {
       vector s = vector::Zero();
@@ -79,7 +79,8 @@ class lsmps_b final {
   template <SizeModel S, class Filter = all_neighbours>
   point_stencil stencil(const points<D>& x, const vec<D>& xq, double l, std::span<const index_t> candidates,
                         const S& size, const Filter& filter = {}) const {
-    if (!(std::isfinite(l) && l > 0.0)) fail("lsmps_b: point diameter l = ", l, ": must be a finite number > 0");
+    if (!(std::isfinite(l) && l > 0.0))
+      fail("lsmps_b: point diameter l = ", l, ": must be a finite number > 0");
     point_stencil st;
     st.x = xq;
     st.l = l;

@@ -20,8 +20,9 @@ enum class degenerate_fallback : std::uint8_t {
 
 /// Reading of Tanaka eqs. 86–87 (the Neumann constraint), docs/operators.md "Neumann constraint".
 enum class neumann_form : std::uint8_t {
-  derivative,  ///< constraint row ∂p/∂(−n)(0): the linear entries of p(−n), higher entries 0 (exact on polynomials)
-  literal,     ///< p(−n_i) as printed: a virtual neighbour at x_i − L_i n_i valued f_i − L_i ∂f/∂n (O(L²) error)
+  derivative,  ///< constraint row ∂p/∂(−n)(0): the linear entries of p(−n), higher entries 0 (exact on
+               ///< polynomials)
+  literal,  ///< p(−n_i) as printed: a virtual neighbour at x_i − L_i n_i valued f_i − L_i ∂f/∂n (O(L²) error)
 };
 
 /// Numbers of LSMPS operators.

@@ -35,9 +35,9 @@ enum class mps_normalisation : std::uint8_t {
 
 /// Numbers of the classic operators.
 struct mps_params {
-  double l0 = 0.0;            ///< initial particle spacing (m)
-  double re_small = 2.1;      ///< gradient / divergence / number-density radius, in l0 (or in L_i)
-  double re_large = 3.1;      ///< Laplacian radius, in l0 (or in L_i)
+  double l0 = 0.0;        ///< initial particle spacing (m)
+  double re_small = 2.1;  ///< gradient / divergence / number-density radius, in l0 (or in L_i)
+  double re_large = 3.1;  ///< Laplacian radius, in l0 (or in L_i)
   /// Pair radius with per-particle sizes (ignored with one l0): own R_i, pair mean (Tang & Wan eqs.
   /// 16–17, Tanaka eq. 28) or max.
   search::radius_rule rule = search::radius_rule::own;
@@ -52,7 +52,7 @@ struct mps_params {
 
 /// Classic MPS operators with kernel K (quadratic by default; `kernel::classic` for the original).
 template <int D, Kernel K = kernel::quadratic>
-  requires Dimension<D>
+requires Dimension<D>
 class mps final {
  public:
   static constexpr int dim = D;
@@ -60,10 +60,10 @@ class mps final {
 
   /// Row view handed to a row-contribution hook (op/concepts.hpp) by `build_laplacian_row`.
   struct row_view {
-    const mps* op = nullptr;  ///< the operator
-    index_t i = npos;         ///< the row particle
-    double coefficient = 0.0; ///< 2d/(n λ) of the row (eq. 10)
-    double re = 0.0;          ///< the row's Laplacian radius R_i (m)
+    const mps* op = nullptr;   ///< the operator
+    index_t i = npos;          ///< the row particle
+    double coefficient = 0.0;  ///< 2d/(n λ) of the row (eq. 10)
+    double re = 0.0;           ///< the row's Laplacian radius R_i (m)
     /// Weight a_i(d) the row gives a virtual neighbour at displacement d (eq. 10: c · w(|d|, R_i)).
     double weight(const vec<D>& d) const { return coefficient * K::w(d.norm(), re); }
   };
@@ -77,16 +77,20 @@ class mps final {
     lambda0_ = large_.lambda0(p.l0);
   }
 
-  const mps_params& params() const { return p_; }          ///< the numbers
-  double re_small() const { return re_s_; }                ///< small radius (m)
-  double re_large() const { return re_l_; }                ///< large radius (m)
-  double n0_small() const { return small_.n0; }            ///< n0 at the small radius
-  double n0_large() const { return large_.n0; }            ///< n0 at the large radius
-  double lambda0() const { return lambda0_; }              ///< λ0 at the large radius (m²)
+  const mps_params& params() const { return p_; }  ///< the numbers
+  double re_small() const { return re_s_; }        ///< small radius (m)
+  double re_large() const { return re_l_; }        ///< large radius (m)
+  double n0_small() const { return small_.n0; }    ///< n0 at the small radius
+  double n0_large() const { return large_.n0; }    ///< n0 at the large radius
+  double lambda0() const { return lambda0_; }      ///< λ0 at the large radius (m²)
   /// Support of the small radius (for reading a list built at ≥ re_large).
-  search::support<search::uniform_radius> small_support() const { return {{re_s_}, search::radius_rule::own}; }
+  search::support<search::uniform_radius> small_support() const {
+    return {{re_s_}, search::radius_rule::own};
+  }
   /// Support of the large radius.
-  search::support<search::uniform_radius> large_support() const { return {{re_l_}, search::radius_rule::own}; }
+  search::support<search::uniform_radius> large_support() const {
+    return {{re_l_}, search::radius_rule::own};
+  }
 
   /// Per-particle diameters L_i (the array must outlive the operator's use; nullptr: back to one l0).
   /// Radii become R_i = re_small·L_i and re_large·L_i read with params().rule; λ0 of row i is λ0(L_i).
@@ -98,8 +102,12 @@ class mps final {
   /// Reference λ0 of particle i at the large radius (λ0 ∝ L², bmmr.md §2.2).
   double lambda0(index_t i) const { return L_ ? large_.lambda0((*L_)[i]) : lambda0_; }
   /// Per-particle support of the small / large radius (with bound sizes).
-  search::support<search::per_particle_radius> small_support_sized() const { return {{L_, p_.re_small}, p_.rule}; }
-  search::support<search::per_particle_radius> large_support_sized() const { return {{L_, p_.re_large}, p_.rule}; }
+  search::support<search::per_particle_radius> small_support_sized() const {
+    return {{L_, p_.re_small}, p_.rule};
+  }
+  search::support<search::per_particle_radius> large_support_sized() const {
+    return {{L_, p_.re_large}, p_.rule};
+  }
 
   /// n_i = Σ_{j≠i} w(r_ij, re_small) (Tanaka eq. 8) over neighbours accepted by `filter`.
   template <class Filter = all_neighbours>
@@ -121,7 +129,8 @@ class mps final {
 
   /// λ_i = Σ w r² / Σ w at the large radius (Tanaka eq. 12, Tang & Wan eq. 8); 0 with no neighbour.
   template <class Filter = all_neighbours>
-  double lambda(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter = {}) const {
+  double lambda(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                const Filter& filter = {}) const {
     double sw = 0.0, swr2 = 0.0;
     sweep(x, nl, i, true, filter, [&](index_t, const vec<D>&, double r2, double w) {
       sw += w;
@@ -150,9 +159,9 @@ class mps final {
 
   /// Emits the Laplacian row of i (eq. 10) into a RowBuilder, then hook(i, row_view, builder).
   template <class Filter, class B, class Hook = no_contribution>
-    requires RowBuilder<B>
-  void build_laplacian_row(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Filter& filter,
-                           B& builder, const Hook& hook = {}) const {
+  requires RowBuilder<B>
+  void build_laplacian_row(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                           const Filter& filter, B& builder, const Hook& hook = {}) const {
     row_view rv{this, i, laplacian_coefficient(x, nl, i, filter), p_.re_large * diameter(i)};
     double diag = 0.0;
     sweep(x, nl, i, true, filter, [&](index_t j, const vec<D>&, double, double w) {
@@ -175,8 +184,8 @@ class mps final {
 
   /// ⟨∇²φ⟩_i for an Eigen::VectorXd (exact match: a VectorXd also converts to points<D>).
   template <class Filter = all_neighbours>
-  double laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const Eigen::VectorXd& phi,
-                   const Filter& filter = {}) const {
+  double laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                   const Eigen::VectorXd& phi, const Filter& filter = {}) const {
     return laplacian(x, nl, i, Eigen::Ref<const Eigen::VectorXd>(phi), filter);
   }
 
@@ -194,7 +203,8 @@ class mps final {
   vec<D> gradient(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                   const Eigen::Ref<const Eigen::VectorXd>& phi, const Filter& filter = {}) const {
     vec<D> g = vec<D>::Zero();
-    for_each_gradient_weight(x, nl, i, filter, [&](index_t j, const vec<D>& c) { g += c * (phi[j] - phi[i]); });
+    for_each_gradient_weight(x, nl, i, filter,
+                             [&](index_t j, const vec<D>& c) { g += c * (phi[j] - phi[i]); });
     return g;
   }
 
@@ -232,8 +242,9 @@ class mps final {
   mat<D> correction_matrix(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                            const Filter& filter = {}, flag::type* flags = nullptr) const {
     mat<D> C = mat<D>::Zero();
-    sweep(x, nl, i, false, filter,
-          [&](index_t, const vec<D>& d, double r2, double w) { C.noalias() += (w / r2) * (d * d.transpose()); });
+    sweep(x, nl, i, false, filter, [&](index_t, const vec<D>& d, double r2, double w) {
+      C.noalias() += (w / r2) * (d * d.transpose());
+    });
     mat<D> F = C, inv;
     if (detail::ldlt_pivoted(F, D, correction_pivot_tolerance).passed == D) {
       detail::ldlt_inverse(F, D, inv);
@@ -267,8 +278,8 @@ class mps final {
   /// Corrected pressure gradient with the minimum neighbour pressure (bmmr.md eq. 29, p̂_i of eq. 22).
   template <class Filter = all_neighbours>
   vec<D> corrected_min_pressure_gradient(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
-                                         const Eigen::Ref<const Eigen::VectorXd>& p, const Filter& filter = {},
-                                         flag::type* flags = nullptr) const {
+                                         const Eigen::Ref<const Eigen::VectorXd>& p,
+                                         const Filter& filter = {}, flag::type* flags = nullptr) const {
     const double pmin = min_neighbour_value(x, nl, i, p, filter);
     vec<D> g = vec<D>::Zero();
     for_each_corrected_gradient_weight(
@@ -291,7 +302,8 @@ class mps final {
   double mass_weighted_number_density(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                                       const Filter& filter = {}) const {
     double n = 0.0;
-    sweep(x, nl, i, false, filter, [&](index_t j, const vec<D>&, double, double w) { n += w * mass_factor(i, j); });
+    sweep(x, nl, i, false, filter,
+          [&](index_t j, const vec<D>&, double, double w) { n += w * mass_factor(i, j); });
     return n;
   }
 
@@ -324,8 +336,8 @@ class mps final {
   /// (m_j/L_j)/λ_i) / (m_i/L_i + m_j/L_j), with λ from `lambda` (per particle, eq. 8) or, when null,
   /// the reference λ0(L). m_i a_ij = m_j a_ji for a symmetric pair rule (momentum-conserving viscosity).
   template <class Filter, class F>
-  void for_each_mass_weighted_laplacian_weight(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
-                                               const Filter& filter, F&& f,
+  void for_each_mass_weighted_laplacian_weight(const points<D>& x, const search::neighbour_list<D>& nl,
+                                               index_t i, const Filter& filter, F&& f,
                                                const Eigen::VectorXd* lambda = nullptr) const {
     const double c = 2.0 * D / n0_of(x, nl, i, true, filter);
     const double Li = diameter(i), mi = mass(Li), li = lambda ? (*lambda)[i] : lambda0(i);
@@ -352,8 +364,8 @@ class mps final {
   /// Calls f(j, x_ij, r², w_ij) over accepted neighbours at the small or large radius. One l0: the
   /// original uniform sweep; with sizes: R_ij from params().rule and w(r, R_ij).
   template <class Filter, class F>
-  void sweep(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, bool large, const Filter& filter,
-             F&& f) const {
+  void sweep(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, bool large,
+             const Filter& filter, F&& f) const {
     if (!L_) {
       const double re = large ? re_l_ : re_s_;
       nl.for_each_neighbour(x, i, large ? large_support() : small_support(),
@@ -365,7 +377,8 @@ class mps final {
       nl.for_each_neighbour(x, i, large ? large_support_sized() : small_support_sized(),
                             [&](index_t j, const vec<D>& d, double r2) {
                               if (!filter(j)) return;
-                              const double Rij = std::sqrt(search::pair_radius2(p_.rule, Ri, ratio * (*L_)[j]));
+                              const double Rij =
+                                  std::sqrt(search::pair_radius2(p_.rule, Ri, ratio * (*L_)[j]));
                               f(j, d, r2, K::w(std::sqrt(r2), Rij));
                             });
     }
@@ -403,7 +416,8 @@ class mps final {
   double min_neighbour_value(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                              const Eigen::Ref<const Eigen::VectorXd>& p, const Filter& filter) const {
     double pmin = p[i];
-    sweep(x, nl, i, false, filter, [&](index_t j, const vec<D>&, double, double) { pmin = std::min(pmin, p[j]); });
+    sweep(x, nl, i, false, filter,
+          [&](index_t j, const vec<D>&, double, double) { pmin = std::min(pmin, p[j]); });
     return pmin;
   }
 

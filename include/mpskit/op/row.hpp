@@ -19,12 +19,12 @@ class row_value final {
  public:
   /// φ must outlive the builder; i is the row particle.
   row_value(const Eigen::Ref<const Eigen::VectorXd>& phi, index_t i) : phi_(phi), i_(i) {}
-  void add(index_t j, double a) { sum_ += a * phi_[j]; }       ///< a·φ_j
-  void add_diagonal(double a) { diag_ += a; }                   ///< a·φ_i
-  void add_constant(double c) { constant_ += c; }               ///< c
+  void add(index_t j, double a) { sum_ += a * phi_[j]; }  ///< a·φ_j
+  void add_diagonal(double a) { diag_ += a; }             ///< a·φ_i
+  void add_constant(double c) { constant_ += c; }         ///< c
   /// The row's value.
   double value() const { return sum_ + diag_ * phi_[i_] + constant_; }
-  double constant() const { return constant_; }                 ///< the constant part alone
+  double constant() const { return constant_; }  ///< the constant part alone
 
  private:
   Eigen::Ref<const Eigen::VectorXd> phi_;
@@ -37,19 +37,24 @@ class row_entries final {
  public:
   /// i is the row particle (a column j == i is folded into the diagonal).
   explicit row_entries(index_t i = npos) : i_(i) {}
-  void add(index_t j, double a) {                               ///< a·φ_j
-    if (j == i_) diag_ += a;
-    else cols_.emplace_back(j, a);
+  void add(index_t j, double a) {  ///< a·φ_j
+    if (j == i_)
+      diag_ += a;
+    else
+      cols_.emplace_back(j, a);
   }
-  void add_diagonal(double a) { diag_ += a; }                   ///< a·φ_i
-  void add_constant(double c) { constant_ += c; }               ///< c
+  void add_diagonal(double a) { diag_ += a; }      ///< a·φ_i
+  void add_constant(double c) { constant_ += c; }  ///< c
   /// Sorts by column and sums repeated columns (stable: repeated entries are summed in call order).
   void merge() {
-    std::stable_sort(cols_.begin(), cols_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::stable_sort(cols_.begin(), cols_.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
     std::size_t out = 0;
     for (std::size_t k = 0; k < cols_.size(); ++k) {
-      if (out > 0 && cols_[out - 1].first == cols_[k].first) cols_[out - 1].second += cols_[k].second;
-      else cols_[out++] = cols_[k];
+      if (out > 0 && cols_[out - 1].first == cols_[k].first)
+        cols_[out - 1].second += cols_[k].second;
+      else
+        cols_[out++] = cols_[k];
     }
     cols_.resize(out);
   }
@@ -60,9 +65,9 @@ class row_entries final {
     diag_ = constant_ = 0.0;
   }
   const std::vector<std::pair<index_t, double>>& columns() const { return cols_; }  ///< off-diagonal entries
-  double diagonal() const { return diag_; }                     ///< coefficient of φ_i
-  double constant() const { return constant_; }                 ///< known term
-  index_t row() const { return i_; }                            ///< the row particle
+  double diagonal() const { return diag_; }                                         ///< coefficient of φ_i
+  double constant() const { return constant_; }                                     ///< known term
+  index_t row() const { return i_; }                                                ///< the row particle
   /// Σ a_j φ_j + a_diag φ_i + c.
   double apply(const Eigen::Ref<const Eigen::VectorXd>& phi) const {
     double s = 0.0;

@@ -65,11 +65,10 @@ struct monomials {
 
 /// Basis of order P in D dimensions: evaluation of p(s) (s = x/L, already scaled), H and selectors.
 template <int D, int P>
-  requires Dimension<D> && (P >= 1 && P <= 3)
-struct lsmps_basis {
-  static constexpr int dim = D;                        ///< spatial dimension
+requires Dimension<D> &&(P >= 1 && P <= 3) struct lsmps_basis {
+  static constexpr int dim = D;  ///< spatial dimension
   static constexpr monomials<D, P> table{};
-  static constexpr int size = monomials<D, P>::size;   ///< m
+  static constexpr int size = monomials<D, P>::size;                ///< m
   static constexpr int size_at(int p) { return basis_size(D, p); }  ///< m of a lower order p
   using vector = Eigen::Matrix<double, size, 1>;
 
@@ -181,8 +180,8 @@ struct lsmps_basis {
 
 /// Result of a factorisation with the relative-pivot test.
 struct pivot_result {
-  int passed = 0;           ///< leading columns whose pivots passed (the order-k block is usable if ≥ m_k)
-  double min_ratio = 1.0;   ///< smallest d_k / max_{s≤k} M_ss among the passed columns
+  int passed = 0;          ///< leading columns whose pivots passed (the order-k block is usable if ≥ m_k)
+  double min_ratio = 1.0;  ///< smallest d_k / max_{s≤k} M_ss among the passed columns
 };
 
 /// In-place LDLᵀ of the leading n×n block of a symmetric matrix A (lower triangle read), stopping at
@@ -278,9 +277,9 @@ inline constexpr double singular_pivot = 1e-14;
 
 /// Outcome of `factorise`.
 struct factor_result {
-  int order = 0;           ///< exact order achieved (0: regularised or zero)
-  bool degenerate = false; ///< the full order was not used
-  double condition = 0.0;  ///< cond₁ of the matrix actually inverted (0 for a zero factor)
+  int order = 0;            ///< exact order achieved (0: regularised or zero)
+  bool degenerate = false;  ///< the full order was not used
+  double condition = 0.0;   ///< cond₁ of the matrix actually inverted (0 for a zero factor)
 };
 
 /// The degenerate test and fallback shared by LSMPS type A and B (docs/operators.md "Degenerate
@@ -291,8 +290,8 @@ struct factor_result {
 /// leading n = regular_size block with δ = regularisation · max_k M_kk, or zero when M has no weight.
 /// `out` receives the inverse zero-padded to the full size.
 template <class Mat, class SizeAt>
-factor_result factorise(const Mat& M, int P, SizeAt size_at, int p_min, bool lower_order, double max_condition,
-                        double regularisation, int regular_size, Mat& out) {
+factor_result factorise(const Mat& M, int P, SizeAt size_at, int p_min, bool lower_order,
+                        double max_condition, double regularisation, int regular_size, Mat& out) {
   constexpr int m = Mat::RowsAtCompileTime;  // the full basis (size_at(P))
   factor_result res;
   Mat F = M;
@@ -329,7 +328,8 @@ factor_result factorise(const Mat& M, int P, SizeAt size_at, int p_min, bool low
   for (int k = 0; k < regular_size; ++k) F(k, k) += regularisation * mx;
   if (ldlt_pivoted(F, regular_size, 0.0).passed == regular_size) {
     ldlt_inverse(F, regular_size, out);
-    res.condition = cond1(M, out, regular_size);  // of the unshifted block against the shifted inverse: indicative
+    res.condition =
+        cond1(M, out, regular_size);  // of the unshifted block against the shifted inverse: indicative
   } else {
     out.setZero();
   }
