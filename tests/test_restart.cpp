@@ -1,0 +1,136 @@
+// io/simulation_checkpoint.hpp: checkpoint and restart of the semi-implicit scheme on the Koshizuka &
+// Oka dam break (label restart).
+#include <doctest/doctest.h>
+
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#if __has_include(<unistd.h>)
+#include <unistd.h>
+#endif
+
+#include "cases/dam_break.hpp"
+#include "mpskit/io/simulation_checkpoint.hpp"
+
+using namespace mpskit;
+namespace fs = std::filesystem;
+
+namespace {
+/// A scratch directory removed at the end of the test.
+struct scratch {
+  fs::path dir;
+  explicit scratch(const std::string& name) {
+#if __has_include(<unistd.h>)
+    const long pid = static_cast<long>(::getpid());
+#else
+    const long pid = 0;
+#endif
+    dir = fs::temp_directory_path() / ("mpskit_test_restart_" + std::to_string(pid) + "_" + name);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~scratch() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  fs::path operator/(const std::string& f) const { return dir / f; }
+};
+
+using sim_t = simulation<defaults<2>>;
+
+/// The dam break of examples/cases/dam_break.hpp at l0 = a/15 (coarse: the test is about restart).
+struct dam {
+  cases::dam_break_config cfg;
+  dam() {
+    cfg.l0 = cfg.a / 15;
+    cfg.params.l0 = cfg.l0;
+  }
+  scheme::semi_implicit_state<2> initial() const {
+    return cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0);
+  }
+};
+
+void steps(sim_t& s, int n) {
+  for (int k = 0; k < n; ++k) s.step();
+}
+
+/// Bytes of two Eigen objects equal (bitwise: −0.0 ≠ 0.0, NaN payloads count).
+template <class A>
+bool same_bits(const A& a, const A& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+void check_same_counters(const scheme::semi_implicit_counters& a, const scheme::semi_implicit_counters& b) {
+  CHECK(a.steps == b.steps);
+  CHECK(a.ppe_iterations == b.ppe_iterations);
+  CHECK(a.ppe_iterations_max == b.ppe_iterations_max);
+  CHECK(a.pinned_components == b.pinned_components);
+  CHECK(a.isolated == b.isolated);
+  CHECK(a.list_builds == b.list_builds);
+  CHECK(a.reorders == b.reorders);
+  CHECK(a.negative_clamped == b.negative_clamped);
+}
+}  // namespace
+
+TEST_SUITE("restart") {
+  TEST_CASE("restart: dam break, 100 steps + save + 100 steps equals load + 100 steps bitwise") {
+    scratch tmp("dam");
+    const dam d;
+    sim_t a(d.cfg.params, d.initial());
+    steps(a, 100);  // 100 is a multiple of reorder_every (25): see io/simulation_checkpoint.hpp
+    REQUIRE(100 % d.cfg.params.reorder_every == 0);
+    io::save_simulation(tmp / "c.mpscp", a);
+    steps(a, 100);
+
+    sim_t b(d.cfg.params, d.initial());
+    io::load_simulation(tmp / "c.mpscp", b);
+    CHECK(b.counters().steps == 100);
+    steps(b, 100);
+
+    MESSAGE("A: t = " << a.time() << " s, " << a.counters().steps << " steps, " << a.counters().ppe_iterations
+                      << " PPE iterations, dt state {" << a.time_step().state().halvings << ", "
+                      << a.time_step().state().held << ", " << a.time_step().state().changes << "}");
+    // Reference: the uninterrupted run A. The restart holds every input of the next steps bitwise (state,
+    // time, counters, Δt controller); the list is rebuilt at step 100 by both runs (reorder step), so
+    // every later operation is the same sequence of floating-point operations: equality, not a tolerance.
+    const auto& sa = a.state();
+    const auto& sb = b.state();
+    REQUIRE(sa.n_real() == sb.n_real());
+    CHECK(sa.ids() == sb.ids());
+    CHECK(sa.kinds() == sb.kinds());
+    CHECK(sa.flags() == sb.flags());
+    CHECK(same_bits(sa.x(), sb.x()));
+    CHECK(same_bits(sa.u(), sb.u()));
+    CHECK(same_bits(sa.get<field::pressure>(), sb.get<field::pressure>()));
+    CHECK(same_bits(sa.get<field::number_density>(), sb.get<field::number_density>()));
+    CHECK(std::bit_cast<std::uint64_t>(a.time()) == std::bit_cast<std::uint64_t>(b.time()));
+    check_same_counters(a.counters(), b.counters());
+    CHECK(a.time_step().state().halvings == b.time_step().state().halvings);
+    CHECK(a.time_step().state().held == b.time_step().state().held);
+    CHECK(a.time_step().state().changes == b.time_step().state().changes);
+  }
+
+  TEST_CASE("restart: refused loads name the file and the problem") {
+    scratch tmp("bad");
+    const dam d;
+    sim_t a(d.cfg.params, d.initial());
+    steps(a, 3);
+    io::save_simulation(tmp / "c.mpscp", a);
+    // Into a simulation that has stepped (its list would describe other particles).
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", a), doctest::Contains("already stepped"), mpskit::error);
+    // Into a simulation of another spacing.
+    auto p = d.cfg.params;
+    p.l0 = d.cfg.l0 * 1.5;
+    sim_t c(p, cases::tank_state<2>(vec<2>(d.cfg.a, 2 * d.cfg.a), vec<2>(4 * d.cfg.a, 2.5 * d.cfg.a), p.l0));
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", c), doctest::Contains("written with l0"), mpskit::error);
+    CHECK(c.counters().steps == 0);  // untouched
+    // A plain particle checkpoint without the scheme's sections.
+    io::save_checkpoint(tmp / "plain.mpscp", a.state());
+    sim_t e(d.cfg.params, d.initial());
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", e), doctest::Contains("no section 'semi_implicit.time'"),
+                         mpskit::error);
+    CHECK(e.time() == 0.0);
+  }
+}
