@@ -6,6 +6,9 @@
 ///     struct my_scene : mpskit::defaults<2> { using source = mpskit::ppe::mixed; };
 ///     mpskit::simulation<my_scene> sim{params, initial_state};
 ///
+/// Inside a scene derived from `defaults`, spell policies fully qualified (`mpskit::surface::npcd`, not
+/// `surface::npcd`): the member names `kernel`, `op`, `surface`, ... hide the namespaces of the same name.
+///
 /// The defaults are the single-resolution classic MPS of the BMMR paper (bmmr.md §2): quadratic kernel
 /// at 2.1 / 3.1 l0, TCPI source with artificial compressibility, NPCD surface detection, Lee et al.'s
 /// collision model, CG with incomplete Cholesky, wall + dummy layers.
