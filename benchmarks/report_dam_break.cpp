@@ -1,0 +1,177 @@
+// Speed against error on the Koshizuka & Oka dam break (examples/cases/dam_break.hpp): for each solver
+// and spacing l0 = a/N, the surge-front error against the experiments and wall time, as CSV, Markdown
+// and PNG (benchmarks/reporter.hpp). Run from the repository root with one thread:
+//
+//   OMP_NUM_THREADS=1 build/benchmarks/bench_report_dam_break --levels 15,20,30 --repetitions 3
+//
+// Options: --levels N1,N2,... (l0 = a/N), --solvers cg_ichol[,cholmod][,umfpack], --repetitions R,
+// --T-end T (dimensionless, default 3), --out DIR (default benchmarks/results), --data DIR (default
+// tests/data/dam_break_front of the source tree).
+//
+// Error metric (docs/validation.md): at every front sample T_k ≤ T_end (ΔT = 0.05), Z_ref(T_k) is the
+// mean of the data series defined at T_k (Martin & Moyce 1952 two scales, Koshizuka & Oka 1996;
+// linear interpolation); e_k = (Z(T_k) − Z_ref(T_k)) / Z_ref(T_k); reported: RMS and max |e_k|.
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cases/dam_break.hpp"
+#include "reporter.hpp"
+#ifdef MPSKIT_HAS_SUITESPARSE
+#include "mpskit/ppe/suitesparse.hpp"
+#endif
+
+#ifndef MPSKIT_BENCH_FLAGS
+#define MPSKIT_BENCH_FLAGS "unknown flags"
+#endif
+#ifndef MPSKIT_DAM_BREAK_DATA_DIR
+#define MPSKIT_DAM_BREAK_DATA_DIR "tests/data/dam_break_front"
+#endif
+
+using namespace mpskit;
+
+namespace {
+
+struct cg_scene : defaults<2> {};
+#ifdef MPSKIT_HAS_SUITESPARSE
+struct cholmod_scene : defaults<2> {
+  using solver = ppe::cholmod;
+};
+struct umfpack_scene : defaults<2> {
+  using solver = ppe::umfpack;
+};
+#endif
+
+/// RMS and max |e| of the relative front error against the mean of the data defined at each sample.
+std::vector<bench::metric> front_errors(const cases::dam_break_result& r, const std::vector<cases::front_series>& data,
+                                        double T_max) {
+  double sum2 = 0.0, emax = 0.0;
+  long n = 0;
+  for (std::size_t k = 0; k < r.T.size(); ++k) {
+    if (r.T[k] > T_max + 1e-9) break;
+    double zsum = 0.0;
+    int m = 0;
+    for (const auto& s : data) {
+      const double z = s.at(r.T[k]);
+      if (!std::isnan(z)) {
+        zsum += z;
+        ++m;
+      }
+    }
+    if (m == 0) continue;
+    const double zref = zsum / m;
+    const double e = (r.Z[k] - zref) / zref;
+    sum2 += e * e;
+    emax = std::max(emax, std::abs(e));
+    ++n;
+  }
+  if (n == 0) fail("report_dam_break: no front sample lies where the data is defined");
+  return {{"front_rms", std::sqrt(sum2 / double(n))}, {"front_max", emax}};
+}
+
+template <class Scene>
+bench::configuration make(const std::string& solver, int N, double T_end, const std::vector<cases::front_series>* data) {
+  cases::dam_break_config cfg;
+  cfg.l0 = cfg.a / N;
+  cfg.T_end = T_end;
+  bench::configuration c;
+  c.name = solver + " a/" + std::to_string(N);
+  c.series = solver;
+  c.l0 = cfg.l0;
+  c.run = [cfg, data, T_end]() {
+    const cases::dam_break_result r = cases::run_dam_break<Scene>(cfg);
+    bench::run_outcome o;
+    o.particles = r.particles;
+    o.steps = r.steps;
+    o.wall_seconds = r.wall_seconds;
+    o.ppe_iterations = r.ppe_iterations;
+    o.errors = front_errors(r, *data, std::min(3.0, T_end));
+    return o;
+  };
+  return c;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) v.push_back(item);
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  std::vector<int> levels{15, 20, 30};
+  std::vector<std::string> solvers{"cg_ichol"};
+#ifdef MPSKIT_HAS_SUITESPARSE
+  solvers.push_back("cholmod");
+#endif
+  int reps = 3;
+  double T_end = 3.0;
+  std::string out = "benchmarks/results", data_dir = MPSKIT_DAM_BREAK_DATA_DIR;
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    auto next = [&]() -> std::string {
+      if (k + 1 >= argc) fail("report_dam_break: option ", a, " needs a value");
+      return argv[++k];
+    };
+    if (a == "--levels") {
+      levels.clear();
+      for (const std::string& s : split(next())) {
+        const int N = std::stoi(s);
+        if (N < 4 || N > 400) fail("report_dam_break: --levels entry ", N, " outside [4, 400] (l0 = a/N)");
+        levels.push_back(N);
+      }
+    } else if (a == "--solvers") {
+      solvers = split(next());
+    } else if (a == "--repetitions") {
+      reps = std::stoi(next());
+    } else if (a == "--T-end") {
+      T_end = std::stod(next());
+      if (!(T_end > 0.0 && T_end <= 10.0)) fail("report_dam_break: --T-end ", T_end, " outside (0, 10]");
+    } else if (a == "--out") {
+      out = next();
+    } else if (a == "--data") {
+      data_dir = next();
+    } else {
+      fail("report_dam_break: unknown option '", a, "' (--levels, --solvers, --repetitions, --T-end, --out, --data)");
+    }
+  }
+  const std::vector<cases::front_series> data{cases::read_front_series(data_dir + "/martin_moyce_1952_a1.125in.csv"),
+                                              cases::read_front_series(data_dir + "/martin_moyce_1952_a2.25in.csv"),
+                                              cases::read_front_series(data_dir + "/koshizuka_oka_1996.csv")};
+  const char* threads = std::getenv("OMP_NUM_THREADS");
+  std::cout << "dam break speed/error report; " << MPSKIT_BENCH_FLAGS << "; OMP_NUM_THREADS="
+            << (threads ? threads : "(unset)") << "; repetitions " << reps << "\n";
+  bench::reporter rep("Dam break (Koshizuka & Oka)", reps);
+  for (const std::string& s : solvers)
+    for (int N : levels) {
+      if (s == "cg_ichol") {
+        rep.add(make<cg_scene>(s, N, T_end, &data));
+#ifdef MPSKIT_HAS_SUITESPARSE
+      } else if (s == "cholmod") {
+        rep.add(make<cholmod_scene>(s, N, T_end, &data));
+      } else if (s == "umfpack") {
+        rep.add(make<umfpack_scene>(s, N, T_end, &data));
+#endif
+      } else {
+        fail("report_dam_break: solver '", s, "' is not available (cg_ichol; cholmod, umfpack with SuiteSparse)");
+      }
+    }
+  rep.run_all(std::cout);
+  std::filesystem::create_directories(out);
+  const std::filesystem::path csv = std::filesystem::path(out) / "dam_break_speed_error.csv";
+  const std::filesystem::path png = std::filesystem::path(out) / "dam_break_speed_error.png";
+  rep.write_csv(csv);
+  std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";
+  if (rep.write_plot(png, "front_rms")) std::cout << "wrote " << png.string() << "\n";
+  return 0;
+} catch (const std::exception& e) {
+  std::cerr << e.what() << "\n";
+  return 1;
+}

@@ -1,0 +1,218 @@
+#pragma once
+// Speed-against-error reporter: runs one case over a list of configurations (name, spacing l0, a run
+// function that picks the scene/solver), repeats each run, and records particles, steps, wall time
+// (median over repetitions), particle-steps per second, mean PPE iterations per step and the case's
+// error metrics against a reference. Writes a CSV, a Markdown table and a PNG of error against wall
+// time through gnuplot (Debian package gnuplot-nox, scripts/deps.sh).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mpskit/core/dimension.hpp"
+#include "mpskit/core/error.hpp"
+
+namespace mpskit::bench {
+
+/// A named error metric of one run (dimensionless unless the name says otherwise).
+struct metric {
+  std::string name;    ///< column name, e.g. "front_rms"
+  double value = 0.0;  ///< value
+};
+
+/// What one run of a configuration measured.
+struct run_outcome {
+  index_t particles = 0;          ///< particles of every kind
+  long steps = 0;                 ///< steps taken
+  double wall_seconds = 0.0;      ///< wall time of the time loop (set-up excluded)
+  long ppe_iterations = 0;        ///< PPE iterations summed over steps
+  std::vector<metric> errors;     ///< error metrics against the reference
+};
+
+/// A configuration: a name, a series it belongs to (one plotted line, e.g. the solver), its spacing,
+/// and the run itself.
+struct configuration {
+  std::string name;                   ///< row name, e.g. "cg_ichol a/20"
+  std::string series;                 ///< plot series (configurations of one series are joined)
+  double l0 = 0.0;                    ///< particle spacing (m)
+  std::function<run_outcome()> run;   ///< runs the case once
+};
+
+/// One row of the report.
+struct run_record {
+  std::string name, series;
+  double l0 = 0.0;
+  index_t particles = 0;
+  long steps = 0;
+  std::vector<double> wall_seconds;    ///< every repetition
+  double wall_median = 0.0;            ///< median of wall_seconds
+  double particle_steps_per_second = 0.0;  ///< particles × steps / median wall time
+  double ppe_iterations_mean = 0.0;    ///< PPE iterations per step
+  std::vector<metric> errors;          ///< from the first repetition (runs are deterministic)
+};
+
+/// Median of a non-empty list.
+inline double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Runs configurations, keeps records, writes CSV / Markdown / PNG.
+class reporter {
+ public:
+  /// `case_name` titles the outputs; `repetitions` ≥ 1 runs per configuration (median wall time).
+  explicit reporter(std::string case_name, int repetitions = 3) : case_(std::move(case_name)), reps_(repetitions) {
+    if (repetitions < 1) fail("reporter: repetitions = ", repetitions, " must be >= 1");
+  }
+  /// Adds a configuration.
+  void add(configuration c) {
+    if (!c.run) fail("reporter: configuration '", c.name, "' has no run function");
+    configs_.push_back(std::move(c));
+  }
+  /// Runs every configuration `repetitions` times, logging each run to `log`.
+  const std::vector<run_record>& run_all(std::ostream& log = std::cout) {
+    records_.clear();
+    for (const configuration& c : configs_) {
+      run_record r;
+      r.name = c.name;
+      r.series = c.series;
+      r.l0 = c.l0;
+      for (int k = 0; k < reps_; ++k) {
+        const run_outcome o = c.run();
+        if (k == 0) {
+          r.particles = o.particles;
+          r.steps = o.steps;
+          r.errors = o.errors;
+          r.ppe_iterations_mean = o.steps > 0 ? double(o.ppe_iterations) / double(o.steps) : 0.0;
+        } else if (o.steps != r.steps) {
+          fail("reporter: '", c.name, "' took ", o.steps, " steps in repetition ", k, ", ", r.steps,
+               " in the first (runs must be deterministic)");
+        }
+        r.wall_seconds.push_back(o.wall_seconds);
+        log << "  " << c.name << " run " << k + 1 << "/" << reps_ << ": " << o.wall_seconds << " s, " << o.steps
+            << " steps" << std::endl;
+      }
+      r.wall_median = median(r.wall_seconds);
+      r.particle_steps_per_second = double(r.particles) * double(r.steps) / r.wall_median;
+      records_.push_back(std::move(r));
+    }
+    return records_;
+  }
+  /// The records of the last run_all.
+  const std::vector<run_record>& records() const { return records_; }
+
+  /// Writes one CSV row per configuration (header: name, series, l0 [m], particles, steps,
+  /// wall_median [s], wall_min [s], wall_max [s], particle_steps_per_s, ppe_iterations_mean, errors...).
+  void write_csv(const std::filesystem::path& path) const {
+    std::ofstream f(path);
+    if (!f) fail("reporter: cannot write '", path.string(), "'");
+    f << std::setprecision(10);
+    f << "name,series,l0 [m],particles,steps,wall_median [s],wall_min [s],wall_max [s],particle_steps_per_s,"
+         "ppe_iterations_mean";
+    for (const std::string& m : metric_names()) f << ',' << m;
+    f << '\n';
+    for (const run_record& r : records_) {
+      f << r.name << ',' << r.series << ',' << r.l0 << ',' << r.particles << ',' << r.steps << ',' << r.wall_median
+        << ',' << *std::min_element(r.wall_seconds.begin(), r.wall_seconds.end()) << ','
+        << *std::max_element(r.wall_seconds.begin(), r.wall_seconds.end()) << ',' << r.particle_steps_per_second
+        << ',' << r.ppe_iterations_mean;
+      for (const std::string& m : metric_names()) f << ',' << value(r, m);
+      f << '\n';
+    }
+    if (!f) fail("reporter: writing '", path.string(), "' failed");
+  }
+
+  /// A Markdown table of the records (errors in %).
+  std::string markdown_table() const {
+    std::ostringstream o;
+    o << "| configuration | l0 (m) | particles | steps | wall median (s) | particle-steps/s | PPE iter./step |";
+    for (const std::string& m : metric_names()) o << ' ' << m << " (%) |";
+    o << "\n|---|---|---|---|---|---|---|";
+    for (std::size_t k = 0; k < metric_names().size(); ++k) o << "---|";
+    o << '\n';
+    for (const run_record& r : records_) {
+      o << "| " << r.name << " | " << std::setprecision(4) << r.l0 << " | " << r.particles << " | " << r.steps << " | "
+        << std::fixed << std::setprecision(2) << r.wall_median << " | " << std::setprecision(0)
+        << r.particle_steps_per_second << " | " << std::setprecision(1) << r.ppe_iterations_mean << " |";
+      for (const std::string& m : metric_names()) o << ' ' << std::setprecision(2) << 100.0 * value(r, m) << " |";
+      o << std::defaultfloat << '\n';
+    }
+    return o.str();
+  }
+
+  /// Plots `metric_name` (log scale) against median wall time (log scale), one line per series, points
+  /// labelled with the configuration name; writes `<png>.dat` and `<png>.gp` beside the PNG and runs
+  /// gnuplot. Returns false (with a message on `log`) when gnuplot is missing or fails.
+  bool write_plot(const std::filesystem::path& png, const std::string& metric_name, std::ostream& log = std::cout) const {
+    std::map<std::string, std::vector<const run_record*>> by_series;
+    std::vector<std::string> order;
+    for (const run_record& r : records_) {
+      if (!by_series.count(r.series)) order.push_back(r.series);
+      by_series[r.series].push_back(&r);
+    }
+    const std::filesystem::path dat = png.string() + ".dat", gp = png.string() + ".gp";
+    {
+      std::ofstream d(dat);
+      if (!d) fail("reporter: cannot write '", dat.string(), "'");
+      d << std::setprecision(10);
+      for (const std::string& s : order) {
+        d << "# series " << s << "\n";
+        for (const run_record* r : by_series[s]) d << r->wall_median << ' ' << value(*r, metric_name) << " \"" << r->name << "\"\n";
+        d << "\n\n";
+      }
+    }
+    {
+      std::ofstream g(gp);
+      if (!g) fail("reporter: cannot write '", gp.string(), "'");
+      g << "set terminal pngcairo size 900,600 font 'sans,11'\n"
+        << "set output '" << png.string() << "'\n"
+        << "set title '" << case_ << ": " << metric_name << " against wall time (median, 1 thread)'\n"
+        << "set xlabel 'wall time (s)'\nset ylabel '" << metric_name << "'\n"
+        << "set logscale xy\nset grid\nset key top right\nset offsets graph 0.05, graph 0.15, graph 0.1, graph 0.1\n"
+        << "plot ";
+      for (std::size_t k = 0; k < order.size(); ++k) {
+        g << (k ? ", \\\n     " : "") << "'" << dat.string() << "' index " << k << " using 1:2 with linespoints pt 7 title '"
+          << order[k] << "', '' index " << k << " using 1:2:3 with labels offset 0,1 notitle";
+      }
+      g << "\n";
+    }
+    const std::string cmd = "gnuplot '" + gp.string() + "'";
+    if (std::system(cmd.c_str()) != 0) {
+      log << "reporter: '" << cmd << "' failed (is gnuplot installed? apt-get install gnuplot-nox)\n";
+      return false;
+    }
+    return true;
+  }
+
+ private:
+  std::vector<std::string> metric_names() const {
+    std::vector<std::string> n;
+    for (const run_record& r : records_)
+      for (const metric& m : r.errors)
+        if (std::find(n.begin(), n.end(), m.name) == n.end()) n.push_back(m.name);
+    return n;
+  }
+  static double value(const run_record& r, const std::string& name) {
+    for (const metric& m : r.errors)
+      if (m.name == name) return m.value;
+    return std::nan("");
+  }
+
+  std::string case_;
+  int reps_;
+  std::vector<configuration> configs_;
+  std::vector<run_record> records_;
+};
+
+}  // namespace mpskit::bench
