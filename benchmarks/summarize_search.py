@@ -97,10 +97,18 @@ def main():
     for t in threads:
         r = res[t]
 
-        def ratio(a, b, key="real"):
-            if a in r and b in r:
-                return med(r[a][key]) / med(r[b][key])
-            return float("nan")
+        class ratio:
+            """Ratio of medians; for 1 thread printed as wall/CPU-time ratio."""
+
+            def __init__(self, a, b):
+                ok = a in r and b in r
+                self.real = med(r[a]["real"]) / med(r[b]["real"]) if ok else float("nan")
+                self.cpu = med(r[a]["cpu"]) / med(r[b]["cpu"]) if ok else float("nan")
+
+            def __format__(self, spec):
+                if t == "1":
+                    return f"{self.real:{spec}} (cpu {self.cpu:{spec}})"
+                return f"{self.real:{spec}}"
 
         for n in ("10000", "100000", "1000000"):
             for skin in ("0", "100"):
