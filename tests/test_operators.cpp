@@ -30,6 +30,7 @@ static_assert(!op::GradientStencil<int, 2>);
 static_assert(op::RowBuilder<op::row_value> && op::RowBuilder<op::row_entries> && !op::RowBuilder<int>);
 static_assert(op::SizeModel<op::uniform_size> && op::SizeModel<op::per_particle_size> && !op::SizeModel<int>);
 static_assert(op::RowContribution<op::no_contribution, op::lsmps_a<2, 2>::row_view, op::row_entries>);
+static_assert(op::RowContribution<op::neumann_rows, op::lsmps_a<2, 2>::row_view, op::row_value>);
 // Archetypes of the op/ concepts (the least a type must offer), checked here.
 namespace archetype {
 struct row_builder {
@@ -750,14 +751,6 @@ TEST_SUITE("operators") {
     return x;
   }
 
-  /// The Neumann hook: adds selᵀH(M+N)⁻¹ · w(0) q_i · (−L_i ∂φ/∂n) as the row's constant (eq. 87).
-  struct neumann_hook {
-    const Eigen::VectorXd* dfdn = nullptr;
-    template <class Row, class B>
-    void operator()(index_t i, const Row& row, B& b) const {
-      if (row.constrained) b.add_constant(row.weight(row.neumann_vector()) * (-row.L * (*dfdn)[i]));
-    }
-  };
   }  // namespace
 
   TEST_CASE("op: neumann-constrained lsmps is exact for a quadratic with exact ∂f/∂n on a one-sided cloud") {
@@ -800,12 +793,12 @@ TEST_SUITE("operators") {
     for (const op::lsmps_a<2, 2>::vector& sel : {op::lsmps_a<2, 2>::laplacian_selector(),
                                                  op::lsmps_a<2, 2>::directional_selector(vec<2>(0.0, 1.0))}) {
       op::row_entries row(0);
-      A.build_row(x, nl, 0, sel, op::all_neighbours{}, row, neumann_hook{&dfdn});
+      A.build_row(x, nl, 0, sel, op::all_neighbours{}, row, op::neumann_rows{&dfdn});
       row.merge();
       const double from_row = row.apply(phi);
       CHECK(from_row == doctest::Approx(sel.dot(d)).epsilon(1e-12));  // same arithmetic up to summation order
       op::row_value rv(phi, 0);
-      A.build_row(x, nl, 0, sel, op::all_neighbours{}, rv, neumann_hook{&dfdn});
+      A.build_row(x, nl, 0, sel, op::all_neighbours{}, rv, op::neumann_rows{&dfdn});
       CHECK(rv.value() == doctest::Approx(from_row).epsilon(1e-12));
       CHECK(row.constant() != 0.0);  // the hook's constant is there (∂f/∂n ≠ 0 for this seed's f)
     }

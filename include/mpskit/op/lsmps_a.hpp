@@ -28,6 +28,17 @@
 
 namespace mpskit::op {
 
+/// \brief The Neumann constraint as a row-contribution hook (Tanaka eq. 87): on a constrained particle adds
+/// selᵀ H_i (M_i + N_i)⁻¹ w(0) q_i · (−L_i ∂φ/∂n|_i) to the row's constant (a right-hand side in a PPE).
+struct neumann_rows final {
+  const Eigen::VectorXd* dfdn = nullptr;  ///< ∂φ/∂n per particle (read on constrained particles only)
+  /// hook(i, row, builder) (op/concepts.hpp RowContribution).
+  template <class Row, class B>
+  void operator()(index_t i, const Row& row, B& b) const {
+    if (row.constrained) b.add_constant(row.weight(row.neumann_vector()) * (-row.L * (*dfdn)[i]));
+  }
+};
+
 /// \brief LSMPS type A of order Order (1–3) with kernel K (Tanaka eq. 29 by default).
 /// Precondition of every stencil/application call: the x, list, sizes and filter of the last `compute`.
 template <int D, int Order, Kernel K = kernel::quadratic>
