@@ -8,6 +8,8 @@
 
 #include "cases/dam_break.hpp"
 #include "cases/hydrostatic.hpp"
+#include "mpskit/geometry/generators.hpp"
+#include "mpskit/wall/polygon_layers.hpp"
 
 using namespace mpskit;
 
@@ -110,6 +112,47 @@ TEST_SUITE("solver") {
     p.solver.max_iterations = 1;
     simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(0.05, 0.05), vec<2>(0.1, 0.1), 0.005));
     CHECK_THROWS_WITH_AS(sim.step(), doctest::Contains("did not converge at step 0"), mpskit::error);
+  }
+
+  TEST_CASE("solver: polygon wall layers match box layers and distance bands on inclined walls") {
+    const double l0 = 0.01;
+    // Tank polyline: the same particles as box_walls except the two outer corner points of a Chebyshev
+    // layering, which lie at sqrt(2)·2.5 l0 > 3 l0 from every wall.
+    geometry::polygon_set<2> tank(geometry::tank(vec<2>(0, 0), vec<2>(0.2, 0.1)));
+    const auto w = wall::polygon_walls<2>(tank, vec<2>(-0.05, -0.05), vec<2>(0.25, 0.1), l0, 3);
+    const auto b = wall::box_walls<2>(vec<2>(0, 0), vec<2>(0.2, 0.1), l0, 3);
+    CHECK(w.size() + 2 == b.size());
+    index_t matched = 0;
+    for (std::size_t k = 0; k < b.size(); ++k)
+      for (std::size_t q = 0; q < w.size(); ++q)
+        if ((b.x[k] - w.x[q]).norm() < 1e-12 && b.kinds[k] == w.kinds[q]) ++matched;
+    CHECK(matched == static_cast<index_t>(w.size()));
+    CHECK(wall::polygon_fill<2>(tank, vec<2>(0, 0), vec<2>(0.2, 0.1), l0).size() == 200);  // 20 × 10 lattice
+    // A V-shaped valley (walls at ±30° from the horizontal), fluid above: every particle's band is
+    // floor(d/l0) with d the exact distance to the two half-lines.
+    mpskit::geometry::polygon_mesh<2> v;
+    v.vertices.resize(2, 3);
+    v.vertices << -0.1, 0.0, 0.1, 0.1 * std::tan(M_PI / 6), 0.0, 0.1 * std::tan(M_PI / 6);
+    v.elements.resize(2, 2);
+    v.elements << 0, 1, 1, 2;
+    geometry::polygon_options<2> opt;
+    opt.fluid_seed = vec<2>(0.0, 0.03);
+    geometry::polygon_set<2> valley(v, opt);
+    const auto vw = wall::polygon_walls<2>(valley, vec<2>(-0.08, -0.06), vec<2>(0.08, 0.04), l0, 3);
+    auto seg_dist = [](const vec<2>& p, const vec<2>& a, const vec<2>& c) {
+      const vec<2> d = c - a;
+      const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+      return (p - (a + t * d)).norm();
+    };
+    index_t bad = 0;
+    for (std::size_t k = 0; k < vw.size(); ++k) {
+      const vec<2> p = vw.x[k];
+      const double d = std::min(seg_dist(p, v.vertices.col(0), v.vertices.col(1)), seg_dist(p, v.vertices.col(1), v.vertices.col(2)));
+      const int m = static_cast<int>(std::floor(d / l0));
+      bad += m > 2 || (m == 0) != (vw.kinds[k] == kind::wall);
+    }
+    CHECK(vw.size() > 30);
+    CHECK(bad == 0);
   }
 
   TEST_CASE("solver: bad numbers are refused with one line each") {

@@ -50,6 +50,7 @@
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"
 #include "mpskit/wall/dummy_layers.hpp"
+#include "mpskit/wall/polygon_layers.hpp"
 #include "mpskit/io/checkpoint.hpp"
 #include "mpskit/io/concepts.hpp"
 #include "mpskit/io/csv.hpp"
