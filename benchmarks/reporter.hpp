@@ -151,10 +151,12 @@ class reporter {
     return o.str();
   }
 
-  /// Plots `metric_name` (log scale) against median wall time (log scale), one line per series, points
-  /// labelled with the configuration name; writes `<png>.dat` and `<png>.gp` beside the PNG and runs
-  /// gnuplot. Returns false (with a message on `log`) when gnuplot is missing or fails.
-  bool write_plot(const std::filesystem::path& png, const std::string& metric_name, std::ostream& log = std::cout) const {
+  /// Plots `metric_name` against median wall time (log scale), one line per series, each point labelled
+  /// with its configuration name minus the series prefix; writes `<png>.dat` and `<png>.gp` beside the
+  /// PNG and runs gnuplot. `log_y` puts the metric on a log scale too. Returns false (with a message on
+  /// `log`) when gnuplot is missing or fails.
+  bool write_plot(const std::filesystem::path& png, const std::string& metric_name, std::ostream& log = std::cout,
+                  bool log_y = false) const {
     std::map<std::string, std::vector<const run_record*>> by_series;
     std::vector<std::string> order;
     for (const run_record& r : records_) {
@@ -167,23 +169,29 @@ class reporter {
       if (!d) fail("reporter: cannot write '", dat.string(), "'");
       d << std::setprecision(10);
       for (const std::string& s : order) {
-        d << "# series " << s << "\n";
-        for (const run_record* r : by_series[s]) d << r->wall_median << ' ' << value(*r, metric_name) << " \"" << r->name << "\"\n";
+        d << "# series " << s << ": wall_median [s], " << metric_name << ", label\n";
+        for (const run_record* r : by_series[s]) {
+          std::string label = r->name;
+          if (label.rfind(s + " ", 0) == 0) label = label.substr(s.size() + 1);
+          d << r->wall_median << ' ' << value(*r, metric_name) << " \"" << label << "\"\n";
+        }
         d << "\n\n";
       }
     }
     {
       std::ofstream g(gp);
       if (!g) fail("reporter: cannot write '", gp.string(), "'");
-      g << "set terminal pngcairo size 900,600 font 'sans,11'\n"
+      g << "set terminal pngcairo size 900,600 font 'sans,11' noenhanced\n"
         << "set output '" << png.string() << "'\n"
-        << "set title '" << case_ << ": " << metric_name << " against wall time (median, 1 thread)'\n"
+        << "set title '" << case_ << ": " << metric_name << " against wall time (median of runs)'\n"
         << "set xlabel 'wall time (s)'\nset ylabel '" << metric_name << "'\n"
-        << "set logscale xy\nset grid\nset key top right\nset offsets graph 0.05, graph 0.15, graph 0.1, graph 0.1\n"
+        << (log_y ? "set logscale xy\n" : "set logscale x\n")
+        << "set grid\nset key top left\nset offsets graph 0.05, graph 0.05, graph 0.15, graph 0.15\n"
         << "plot ";
       for (std::size_t k = 0; k < order.size(); ++k) {
+        const char* off = k % 2 ? "offset 0,-1.2" : "offset 0,1.2";
         g << (k ? ", \\\n     " : "") << "'" << dat.string() << "' index " << k << " using 1:2 with linespoints pt 7 title '"
-          << order[k] << "', '' index " << k << " using 1:2:3 with labels offset 0,1 notitle";
+          << order[k] << "', '' index " << k << " using 1:2:3 with labels " << off << " notitle";
       }
       g << "\n";
     }
