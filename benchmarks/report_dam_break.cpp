@@ -14,7 +14,10 @@
 // signed mean (positive: the simulated front runs ahead of the experiments).
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -46,11 +49,15 @@ struct umfpack_scene : defaults<2> {
 };
 #endif
 
-/// RMS, max |e| and mean e of the relative front error against the mean of the data defined at each sample.
-std::vector<bench::metric> front_errors(const cases::dam_break_result& r, const std::vector<cases::front_series>& data,
+/// One front sample against the reference: T, Z, Z_ref, e.
+struct front_sample {
+  double T, Z, Zref, e;
+};
+
+/// The samples T ≤ T_max where some data series is defined.
+std::vector<front_sample> front_samples(const cases::dam_break_result& r, const std::vector<cases::front_series>& data,
                                         double T_max) {
-  double sum = 0.0, sum2 = 0.0, emax = 0.0;
-  long n = 0;
+  std::vector<front_sample> v;
   for (std::size_t k = 0; k < r.T.size(); ++k) {
     if (r.T[k] > T_max + 1e-9) break;
     double zsum = 0.0;
@@ -64,15 +71,26 @@ std::vector<bench::metric> front_errors(const cases::dam_break_result& r, const 
     }
     if (m == 0) continue;
     const double zref = zsum / m;
-    const double e = (r.Z[k] - zref) / zref;
-    sum += e;
-    sum2 += e * e;
-    emax = std::max(emax, std::abs(e));
-    ++n;
+    v.push_back({r.T[k], r.Z[k], zref, (r.Z[k] - zref) / zref});
   }
-  if (n == 0) fail("report_dam_break: no front sample lies where the data is defined");
-  return {{"front_rms", std::sqrt(sum2 / double(n))}, {"front_max", emax}, {"front_mean", sum / double(n)}};
+  return v;
 }
+
+/// RMS, max |e| and mean e of the relative front error against the mean of the data defined at each sample.
+std::vector<bench::metric> front_errors(const std::vector<front_sample>& v) {
+  if (v.empty()) fail("report_dam_break: no front sample lies where the data is defined");
+  double sum = 0.0, sum2 = 0.0, emax = 0.0;
+  for (const front_sample& f : v) {
+    sum += f.e;
+    sum2 += f.e * f.e;
+    emax = std::max(emax, std::abs(f.e));
+  }
+  const double n = double(v.size());
+  return {{"front_rms", std::sqrt(sum2 / n)}, {"front_max", emax}, {"front_mean", sum / n}};
+}
+
+/// Front samples of each configuration's first run (written to dam_break_fronts.csv).
+std::map<std::string, std::vector<front_sample>> g_fronts;
 
 template <class Scene>
 bench::configuration make(const std::string& solver, int N, double T_end, const std::vector<cases::front_series>* data) {
@@ -83,14 +101,18 @@ bench::configuration make(const std::string& solver, int N, double T_end, const 
   c.name = solver + " a/" + std::to_string(N);
   c.series = solver;
   c.l0 = cfg.l0;
-  c.run = [cfg, data, T_end]() {
+  const std::string c_name = c.name;
+  c.run = [cfg, data, T_end, c_name]() {
     const cases::dam_break_result r = cases::run_dam_break<Scene>(cfg);
     bench::run_outcome o;
     o.particles = r.particles;
     o.steps = r.steps;
     o.wall_seconds = r.wall_seconds;
     o.ppe_iterations = r.ppe_iterations;
-    o.errors = front_errors(r, *data, std::min(3.0, T_end));
+    const std::vector<front_sample> v = front_samples(r, *data, std::min(3.0, T_end));
+    o.errors = front_errors(v);
+    const std::string key = c_name;
+    if (!g_fronts.count(key)) g_fronts[key] = v;
     return o;
   };
   return c;
@@ -170,6 +192,15 @@ int main(int argc, char** argv) try {
   const std::filesystem::path csv = std::filesystem::path(out) / "dam_break_speed_error.csv";
   const std::filesystem::path png = std::filesystem::path(out) / "dam_break_speed_error.png";
   rep.write_csv(csv);
+  {
+    const std::filesystem::path fronts = std::filesystem::path(out) / "dam_break_fronts.csv";
+    std::ofstream f(fronts);
+    if (!f) fail("report_dam_break: cannot write '", fronts.string(), "'");
+    f << std::setprecision(8) << "configuration,T,Z,Z_ref,e\n";
+    for (const auto& r : rep.records())
+      for (const front_sample& x : g_fronts[r.name]) f << r.name << ',' << x.T << ',' << x.Z << ',' << x.Zref << ',' << x.e << '\n';
+    std::cout << "wrote " << fronts.string() << "\n";
+  }
   std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";
   if (rep.write_plot(png, "front_rms")) std::cout << "wrote " << png.string() << "\n";
   return 0;
