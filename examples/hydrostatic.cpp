@@ -28,6 +28,8 @@ int run(bool full) {
       std::printf("   %.4f  %8.2f  %8.2f  %+.4f\n", r.bin_depth[b], r.bin_pressure[b], rho * g * r.bin_depth[b],
                   (r.bin_pressure[b] - rho * g * r.bin_depth[b]) / (rho * g * cfg.depth));
   std::printf("  max bin error below the top two layers: %.4f of rho g H\n", r.max_bin_error);
+  std::printf("  wall loads (time averaged): bottom / fluid weight = %.4f; side / (rho g H^2/2) = %.4f (H = %.4f m by volume)\n",
+              r.bottom_force_ratio, r.side_force_ratio, r.mass_depth);
   return 0;
 }
 

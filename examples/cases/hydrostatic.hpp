@@ -39,6 +39,9 @@ struct hydrostatic_result {
   index_t fluid_end = 0;            ///< fluid particles at the end
   double wall_seconds = 0.0;        ///< wall time of the run
   long ppe_iterations = 0;          ///< total PPE iterations
+  double bottom_force_ratio = 0.0;  ///< time-averaged downward force on the bottom wall / fluid weight
+  double side_force_ratio = 0.0;    ///< time-averaged outward force on the x = 0 wall / (½ ρ g H_m² W^(D−2))
+  double mass_depth = 0.0;          ///< H_m = fluid volume / base area (m)
 };
 
 /// Runs the hydrostatic tank with Scene (a scene type, e.g. mpskit::defaults<D>).
@@ -57,6 +60,8 @@ hydrostatic_result run_hydrostatic(hydrostatic_config<Scene::dim> cfg) {
   const double T = std::sqrt(cfg.depth / g);
   const int nbins = static_cast<int>(std::ceil(cfg.depth / cfg.l0)) + 4;
   std::vector<double> psum(static_cast<std::size_t>(nbins), 0.0), dsum(static_cast<std::size_t>(nbins), 0.0);
+  double fbottom = 0.0, fside = 0.0;
+  long fsamples = 0;
   r.bin_samples.assign(static_cast<std::size_t>(nbins), 0);
   const auto t0 = std::chrono::steady_clock::now();
   auto surface_height = [&](const auto& st) {
@@ -73,6 +78,10 @@ hydrostatic_result run_hydrostatic(hydrostatic_config<Scene::dim> cfg) {
     if (s.time() < cfg.t_begin * T) return;
     const auto& st = s.state();
     const double hs = surface_height(st);
+    // Loads: wall/dummy particles below the fluid box (bottom) and left of it (side x = 0).
+    fbottom -= s.wall_force([&](index_t i) { return st.x()(D - 1, i) < 0.0; })[D - 1];
+    fside -= s.wall_force([&](index_t i) { return st.x()(0, i) < 0.0 && st.x()(D - 1, i) >= 0.0; })[0];
+    ++fsamples;
     const auto& p = st.template get<field::pressure>();
     for (index_t i = 0; i < st.n_real(); ++i) {
       const kind k = st.kinds()[static_cast<std::size_t>(i)];
@@ -113,6 +122,14 @@ hydrostatic_result run_hydrostatic(hydrostatic_config<Scene::dim> cfg) {
   r.max_speed = umax / U;
   r.steps = sim.counters().steps;
   r.ppe_iterations = sim.counters().ppe_iterations;
+  const double cell = std::pow(cfg.l0, D), base = std::pow(cfg.width, D - 1);
+  r.mass_depth = double(r.fluid) * cell / base;
+  const double weight = rho * g * double(r.fluid) * cell;
+  const double side = 0.5 * rho * g * r.mass_depth * r.mass_depth * std::pow(cfg.width, D - 2);
+  if (fsamples > 0) {
+    r.bottom_force_ratio = fbottom / fsamples / weight;
+    r.side_force_ratio = fside / fsamples / side;
+  }
   return r;
 }
 
