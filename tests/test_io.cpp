@@ -4,6 +4,8 @@
 // truncated, corrupted, wrong-version and mismatched checkpoints (suite "checkpoint").
 #include <doctest/doctest.h>
 
+#include "support/support.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -60,24 +62,9 @@ using extra_fields = field_list<field::pressure, field::volume, field::normal, f
 template <int D>
 using state_t = particle_state<D, extra_fields>;
 
-/// A scratch directory removed at the end of the test.
-struct scratch {
-  fs::path dir;
-  explicit scratch(const std::string& name) {
-#if __has_include(<unistd.h>)
-    const long pid = static_cast<long>(::getpid());
-#else
-    const long pid = 0;
-#endif
-    dir = fs::temp_directory_path() / ("mpskit_test_io_" + std::to_string(pid) + "_" + name);
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~scratch() {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-  fs::path operator/(const std::string& f) const { return dir / f; }
+/// A scratch directory removed at the end of the test (tests/support).
+struct scratch : mpskit::test::scratch {
+  explicit scratch(const std::string& name) : mpskit::test::scratch("mpskit_test_io", name) {}
 };
 
 /// Doubles that stress a binary round trip: negative zero, a subnormal, the largest finite, π.

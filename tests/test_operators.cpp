@@ -4,6 +4,8 @@
 // Tang & Wan eqs. 18–20. Every tolerance is written beside its assertion with its reason.
 #include <doctest/doctest.h>
 
+#include "support/support.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -69,21 +71,7 @@ std::uint64_t test_seed() {
 
 // ---- point sets ------------------------------------------------------------------------------------
 
-template <int D>
-points<D> jittered_lattice(int m, double h, double jitter, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> U(-jitter, jitter);
-  const int mz = D == 3 ? m : 1;
-  points<D> x(D, static_cast<index_t>(m) * m * mz);
-  index_t k = 0;
-  for (int c = 0; c < mz; ++c)
-    for (int b = 0; b < m; ++b)
-      for (int a = 0; a < m; ++a, ++k) {
-        x(0, k) = (a + U(rng)) * h;
-        x(1, k) = (b + U(rng)) * h;
-        if constexpr (D == 3) x(2, k) = (c + U(rng)) * h;
-      }
-  return x;
-}
+using mpskit::test::jittered_lattice;
 
 /// Dart throwing in [0, box]^D with minimum distance dmin (brute force; small sets only).
 template <int D>

@@ -2,6 +2,8 @@
 // Oka dam break (label restart).
 #include <doctest/doctest.h>
 
+#include "support/support.hpp"
+
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -18,24 +20,9 @@ using namespace mpskit;
 namespace fs = std::filesystem;
 
 namespace {
-/// A scratch directory removed at the end of the test.
-struct scratch {
-  fs::path dir;
-  explicit scratch(const std::string& name) {
-#if __has_include(<unistd.h>)
-    const long pid = static_cast<long>(::getpid());
-#else
-    const long pid = 0;
-#endif
-    dir = fs::temp_directory_path() / ("mpskit_test_restart_" + std::to_string(pid) + "_" + name);
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~scratch() {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-  fs::path operator/(const std::string& f) const { return dir / f; }
+/// A scratch directory removed at the end of the test (tests/support).
+struct scratch : mpskit::test::scratch {
+  explicit scratch(const std::string& name) : mpskit::test::scratch("mpskit_test_restart", name) {}
 };
 
 using sim_t = simulation<defaults<2>>;

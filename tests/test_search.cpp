@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "archetypes/archetypes.hpp"
+#include "support/support.hpp"
 #include "mpskit/core/state.hpp"
 #include "mpskit/search/concepts.hpp"
 #include "mpskit/search/kdtree.hpp"
@@ -27,18 +28,7 @@ constexpr std::uint64_t seed = 7331;
 
 template <int D>
 points<D> lattice(int m, double l0, double jitter, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> U(-jitter, jitter);
-  const int mz = D == 3 ? m : 1;
-  points<D> x(D, static_cast<index_t>(m) * m * mz);
-  index_t k = 0;
-  for (int c = 0; c < mz; ++c)
-    for (int b = 0; b < m; ++b)
-      for (int a = 0; a < m; ++a, ++k) {
-        x(0, k) = a * l0 + U(rng) * l0;
-        x(1, k) = b * l0 + U(rng) * l0;
-        if constexpr (D == 3) x(2, k) = c * l0 + U(rng) * l0;
-      }
-  return x;
+  return mpskit::test::jittered_lattice<D>(m, l0, jitter, rng);
 }
 
 template <int D>
