@@ -191,7 +191,7 @@ TEST_SUITE("threads") {
   }
 }
 
-TEST_SUITE("bad_input_core") {
+TEST_SUITE("bad_input") {
   TEST_CASE("core: validate names non-finite fields, size mismatches, ghost roles and duplicate ids") {
     rich_state s = make_state(5);
     s.validate();

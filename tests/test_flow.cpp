@@ -90,35 +90,6 @@ TEST_SUITE("dam_break") {
 }
 
 TEST_SUITE("solver") {
-  TEST_CASE("solver: a fixed dt above the Courant limit is refused naming step and particle") {
-    cases::dam_break_config cfg;
-    auto p = cfg.params;
-    p.l0 = cfg.l0;
-    p.time.mode = scheme::time_step_mode::fixed;
-    p.time.dt_max = 1e-2;
-    p.time.dt_fixed = 5e-3;  // at rest the limit is dt_max; at ~0.15 m/s, 0.1 l0/u < 5e-3 s
-    simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
-    CHECK_THROWS_WITH_AS(sim.run_until(1.0), doctest::Contains("fixed dt = 0.005"), mpskit::error);
-    CHECK_THROWS_WITH_AS(sim.run_until(1.0), doctest::Contains("fastest particle"), mpskit::error);
-    CHECK(sim.counters().steps > 0);
-  }
-
-  TEST_CASE("solver: a NaN in a field is refused naming the particle") {
-    auto s = cases::tank_state<2>(vec<2>(0.05, 0.05), vec<2>(0.1, 0.1), 0.005);
-    s.template get<field::pressure>()[7] = std::nan("");
-    scheme::semi_implicit_params<2> p;
-    p.l0 = 0.005;
-    CHECK_THROWS_WITH_AS(simulation<defaults<2>>(p, s), doctest::Contains("'pressure' of particle 7"), mpskit::error);
-  }
-
-  TEST_CASE("solver: a solver capped at 1 iteration fails with step and residual") {
-    scheme::semi_implicit_params<2> p;
-    p.l0 = 0.005;
-    p.solver.max_iterations = 1;
-    simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(0.05, 0.05), vec<2>(0.1, 0.1), 0.005));
-    CHECK_THROWS_WITH_AS(sim.step(), doctest::Contains("did not converge at step 0"), mpskit::error);
-  }
-
   TEST_CASE("solver: polygon wall layers match box layers and distance bands on inclined walls") {
     const double l0 = 0.01;
     // Tank polyline: the same particles as box_walls except the two outer corner points of a Chebyshev
@@ -158,6 +129,37 @@ TEST_SUITE("solver") {
     }
     CHECK(vw.size() > 30);
     CHECK(bad == 0);
+  }
+}
+
+TEST_SUITE("bad_input") {
+  TEST_CASE("solver: a fixed dt above the Courant limit is refused naming step and particle") {
+    cases::dam_break_config cfg;
+    auto p = cfg.params;
+    p.l0 = cfg.l0;
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_max = 1e-2;
+    p.time.dt_fixed = 5e-3;  // at rest the limit is dt_max; at ~0.15 m/s, 0.1 l0/u < 5e-3 s
+    simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
+    CHECK_THROWS_WITH_AS(sim.run_until(1.0), doctest::Contains("fixed dt = 0.005"), mpskit::error);
+    CHECK_THROWS_WITH_AS(sim.run_until(1.0), doctest::Contains("fastest particle"), mpskit::error);
+    CHECK(sim.counters().steps > 0);
+  }
+
+  TEST_CASE("solver: a NaN in a field is refused naming the particle") {
+    auto s = cases::tank_state<2>(vec<2>(0.05, 0.05), vec<2>(0.1, 0.1), 0.005);
+    s.template get<field::pressure>()[7] = std::nan("");
+    scheme::semi_implicit_params<2> p;
+    p.l0 = 0.005;
+    CHECK_THROWS_WITH_AS(simulation<defaults<2>>(p, s), doctest::Contains("'pressure' of particle 7"), mpskit::error);
+  }
+
+  TEST_CASE("solver: a solver capped at 1 iteration fails with step and residual") {
+    scheme::semi_implicit_params<2> p;
+    p.l0 = 0.005;
+    p.solver.max_iterations = 1;
+    simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(0.05, 0.05), vec<2>(0.1, 0.1), 0.005));
+    CHECK_THROWS_WITH_AS(sim.step(), doctest::Contains("did not converge at step 0"), mpskit::error);
   }
 
   TEST_CASE("solver: bad numbers are refused with one line each") {

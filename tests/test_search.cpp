@@ -246,7 +246,9 @@ TEST_SUITE("search") {
     CHECK(got == std::vector<index_t>{0});
     CHECK(t2.nearest(y.col(1), 1) == std::vector<index_t>{1});
   }
+}
 
+TEST_SUITE("bad_input") {
   TEST_CASE("search: bad input is refused with a message naming the problem") {
     points<2> x = points<2>::Zero(2, 3);
     x(0, 1) = 1.0;
