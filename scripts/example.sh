@@ -9,4 +9,4 @@ jobs=$(nproc 2>/dev/null || echo 2)
 cmake -S . -B build/examples -DCMAKE_BUILD_TYPE=Release -DMPSKIT_BUILD_TESTS=OFF >/dev/null
 cmake --build build/examples -j "$jobs" --target dam_break
 mkdir -p out
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} ./build/examples/dam_break --out out/dam_break "$@"
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} ./build/examples/examples/dam_break --out out/dam_break "$@"
