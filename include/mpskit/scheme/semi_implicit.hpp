@@ -245,7 +245,7 @@ class semi_implicit {
                        [&](index_t j) { return kind_of(j) == kind::fluid && !isolated_[static_cast<std::size_t>(j)]; },
                        dt);
     }
-    ensure_list_valid_for(xt_);
+    ensure_list(xt_);
 
     // 6. n′ at x′ and surface detection.
     for_each_particle(exec::par{}, n, [&](index_t i) {
@@ -336,7 +336,6 @@ class semi_implicit {
   void ensure_list(const points<D>& x) {
     if (x_built_.cols() != x.cols() || max_displacement(x) > 0.5 * p_.skin * build_radius()) build_list(x);
   }
-  void ensure_list_valid_for(const points<D>& x) { ensure_list(x); }
   double max_displacement(const points<D>& x) const {
     double m = 0.0;
     for (index_t i = 0; i < x.cols(); ++i) m = std::max(m, (x.col(i) - x_built_.col(i)).squaredNorm());
@@ -548,16 +547,18 @@ class semi_implicit {
   void pin_floating_parts() {
     const index_t m = A_.rows();
     std::vector<index_t> comp(static_cast<std::size_t>(m), npos);
-    std::vector<index_t> stack;
+    std::vector<index_t> stack, members;
     for (index_t r0 = 0; r0 < m; ++r0) {
       if (comp[static_cast<std::size_t>(r0)] != npos) continue;
       bool has_dirichlet = false;
       index_t pin = r0;
       stack.assign(1, r0);
+      members.clear();
       comp[static_cast<std::size_t>(r0)] = r0;
       while (!stack.empty()) {
         const index_t r = stack.back();
         stack.pop_back();
+        members.push_back(r);
         has_dirichlet |= dirichlet_[static_cast<std::size_t>(r)] != 0;
         if (id_of(rows_[static_cast<std::size_t>(r)]) < id_of(rows_[static_cast<std::size_t>(pin)])) pin = r;
         for (matrix_type::InnerIterator it(A_, r); it; ++it) {
@@ -572,8 +573,8 @@ class semi_implicit {
       ++c_.pinned_components;
       for (matrix_type::InnerIterator it(A_, pin); it; ++it) it.valueRef() = it.index() == pin ? 1.0 : 0.0;
       b_[pin] = 0.0;
-      for (index_t r = 0; r < m; ++r) {
-        if (comp[static_cast<std::size_t>(r)] != r0 || r == pin) continue;
+      for (index_t r : members) {  // only this part's rows: O(nnz) over all parts
+        if (r == pin) continue;
         for (matrix_type::InnerIterator it(A_, r); it; ++it)
           if (it.index() == pin) it.valueRef() = 0.0;
       }

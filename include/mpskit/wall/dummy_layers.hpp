@@ -61,12 +61,11 @@ particle_block<D> fill_box(const vec<D>& lo, const vec<D>& hi, double l0, kind k
   return b;
 }
 
-/// Walls of an open-top tank whose fluid space is [lo, hi] (the last axis is vertical; the top is
-/// open): `layers` solid layers on the bottom and the side walls, first layer kind::wall, the others
-/// kind::dummy, on the same cell-centred lattice (layer m at distance (m + ½) l0 outside the box face),
-/// side walls up to hi of the vertical axis, corners filled.
+/// Walls of a tank whose fluid space is [lo, hi] (the last axis is vertical): `layers` solid layers on
+/// every face, the top one only when `open_top` is false; first layer kind::wall, the others kind::dummy,
+/// on the same cell-centred lattice (layer m at distance (m + ½) l0 outside the box face), corners filled.
 template <int D>
-particle_block<D> box_walls(const vec<D>& lo, const vec<D>& hi, double l0, int layers) {
+particle_block<D> box_walls(const vec<D>& lo, const vec<D>& hi, double l0, int layers, bool open_top = true) {
   if (layers < 1) fail("box_walls: layers = ", layers, ": must be >= 1");
   if (!(std::isfinite(l0) && l0 > 0.0)) fail("box_walls: l0 = ", l0, ": must be a finite number > 0");
   std::array<long, D> n{};
@@ -79,7 +78,7 @@ particle_block<D> box_walls(const vec<D>& lo, const vec<D>& hi, double l0, int l
   std::array<long, D> from{}, to{};
   for (int a = 0; a < D; ++a) {
     from[a] = -layers;
-    to[a] = (a == D - 1) ? n[a] - 1 : n[a] - 1 + layers;
+    to[a] = (a == D - 1 && open_top) ? n[a] - 1 : n[a] - 1 + layers;
   }
   std::array<long, D> c = from;
   while (true) {
