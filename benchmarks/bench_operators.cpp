@@ -9,6 +9,8 @@
 // block, Table 1 quadratics) for classic MPS and LSMPS.
 #include <benchmark/benchmark.h>
 
+#include "cases/tanaka_table1.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -292,16 +294,7 @@ void accuracy_table(double h) {
 /// least 3.1 s from the block's top and bottom edges (so only the size jump is measured) of
 /// |computed − exact| / max |exact| over the block, per operator, max over the ten functions.
 void tanaka_table() {
-  constexpr double table1[10][6] = {{-9.97681, -5.28855, 2.96304, -8.51253, -4.59517, -2.79946},
-                                    {-4.89425, 9.70580, -3.62163, 8.68465, -6.42750, 7.15140},
-                                    {-9.30296, -9.82849, 2.53517, -0.28230, -4.54024, 6.04358},
-                                    {-8.17072, -1.03977, 2.80313, 9.46532, 3.21757, 5.81225},
-                                    {1.26560, -9.19248, 7.62810, -8.63277, -4.06415, 9.70153},
-                                    {-8.50703, -9.63988, -9.48729, 1.34495, 0.31953, 2.96243},
-                                    {4.41145, -2.29896, -2.39723, -9.47081, 8.02606, -5.80187},
-                                    {7.22648, 0.91769, 9.28587, 2.56386, -2.54616, 8.98923},
-                                    {-5.37461, 0.41658, -5.34349, 7.94733, -2.50526, -1.75695},
-                                    {4.88571, -2.88980, -2.47475, -5.61998, -8.57723, 1.75817}};
+  const auto& table1 = mpskit::cases::tanaka_table1;
   std::printf(
       "\nTanaka 2018 §5.1, two-size block: max normalised error at the interface particles (|x| < 3.1 s, 3.1 "
       "s < y < 24 - 3.1 s), "
