@@ -13,10 +13,13 @@
 /// at 2.1 / 3.1 l0, TCPI source with artificial compressibility, NPCD surface detection, Lee et al.'s
 /// collision model, CG with incomplete Cholesky, wall + dummy layers.
 #include "mpskit/kernel/quadratic.hpp"
+#include "mpskit/op/lsmps_a.hpp"
 #include "mpskit/op/mps.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
 #include "mpskit/ppe/sources.hpp"
 #include "mpskit/regularize/collision.hpp"
+#include "mpskit/ppe/det_f.hpp"
+#include "mpskit/scheme/lsmps_semi_implicit.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/surface/npcd.hpp"
 #include "mpskit/wall/dummy_layers.hpp"
@@ -36,10 +39,33 @@ struct defaults {
   using collision = mpskit::regularize::collision;         ///< collision model (bmmr.md §2.6)
   using shifting = mpskit::scheme::no_regularization;      ///< no shifting by default
   using walls = mpskit::wall::dummy_layers;                ///< wall + dummy layers
+  /// The stepper that runs the scene.
+  template <class Scene>
+  using stepper = mpskit::scheme::semi_implicit<Scene>;
 };
 
-/// The stepper of a scene (the semi-implicit projection scheme for now).
+/// Tanaka, Cardoso & Bahai 2018's single-resolution LSMPS scheme (scheme/lsmps_semi_implicit.hpp): LSMPS
+/// type A of order 2, det F source, BiCGSTAB (the PPE is not symmetric), geometric surface detection,
+/// polygon walls with imaginary particles, Tanaka's shifting.
+template <int D>
+  requires Dimension<D>
+struct lsmps_defaults {
+  static constexpr int dim = D;                            ///< spatial dimension
+  using kernel = mpskit::kernel::quadratic;                ///< Tanaka eq. 29
+  using op = mpskit::op::lsmps_a<D, 2, kernel>;            ///< LSMPS type A, second order (eqs. 41–46)
+  using source = mpskit::ppe::det_f;                       ///< det F = c′ (eqs. 55–63)
+  using solver = mpskit::ppe::bicgstab;                    ///< BiCGSTAB + ILUT
+  using surface = mpskit::surface::geometric_detector;     ///< §4.6, both cone tests
+  using shifting = mpskit::regularize::tanaka_shift;       ///< eqs. 93–100
+  using walls = mpskit::wall::imaginary;                   ///< polygons, copies on the boundary (§4.5.1)
+  /// The stepper that runs the scene.
+  template <class Scene>
+  using stepper = mpskit::scheme::lsmps_semi_implicit<Scene>;
+};
+
+/// The stepper of a scene: `Scene::stepper<Scene>` (semi_implicit for `defaults`, lsmps_semi_implicit for
+/// `lsmps_defaults`).
 template <class Scene>
-using simulation = scheme::semi_implicit<Scene>;
+using simulation = typename Scene::template stepper<Scene>;
 
 }  // namespace mpskit
