@@ -1,0 +1,210 @@
+#pragma once
+/// \file regularize/tanaka_shift.hpp
+/// \brief Multi-resolution particle shifting of Tanaka, Cardoso & Bahai (2018), §4.7 eqs. (93)–(100)
+/// (seed 000): a centre-of-mass displacement towards target distances (eqs. 93–95), a penalty
+/// displacement down the packing-ratio gradient for overlapping pairs (eqs. 96–97), their sum (eq. 98),
+/// the normal component removed at surface and near-wall particles (eq. 99, after Khayyer et al. 2017)
+/// and the length limited to α_S L_i (eq. 100). Velocities follow δu = (∇u) δx (eq. 91):
+/// `apply_tanaka_shift` does it with the caller's velocity gradient.
+///
+/// Readings and deviations (docs/regularize.md, "Tanaka shifting"):
+/// - Eq. (96) as extracted is dimensionless (w and ε of eq. 97 are pure numbers). mpskit multiplies
+///   each pair term by L_ij, i.e. the penalty depth is the length (1 − α_p) L_ij − r_ij.
+/// - Coincident pairs (r_ij = 0) have no direction x_ji/|x_ji| in eq. (94): they are left out of both
+///   sums of eq. (94) and counted; they still enter the penalty of eq. (96), whose direction is ∇c.
+/// - With eq. (95) as printed, r*_ij > r_ij for every r_ij < R_ij, so every neighbour inside the
+///   support pushes i away (by w_ij (r*_ij − r_ij)); nothing pulls. On a uniform lattice the pushes
+///   cancel; a particle closer to one side is pushed back to the middle.
+/// - The table's α_s = 2.5e-4 ("distance ratio in particle shifting") appears in no equation of §4.7
+///   and is not a parameter here.
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "mpskit/core/dimension.hpp"
+#include "mpskit/core/error.hpp"
+#include "mpskit/core/exec.hpp"
+#include "mpskit/core/params.hpp"
+#include "mpskit/kernel/quadratic.hpp"
+#include "mpskit/search/neighbour_list.hpp"
+#include "mpskit/search/radius.hpp"
+
+namespace mpskit::regularize {
+
+/// Numbers of Tanaka's shifting (Tanaka 2018, parameter table of §2).
+struct tanaka_shift_params {
+  double alpha_g = 0.001;  ///< α_g: δx* = 0 when |g_i − x_i| ≤ α_g L_i (eq. 93); accepted [0, inf)
+  double alpha_T = 0.8;    ///< α_T: target distance r* = L_ij below α_T L_ij (eq. 95); accepted [0, re_ratio)
+  double alpha_p = 0.1;    ///< α_p: penalty below (1 − α_p) L_ij (eq. 97); accepted [0, 1)
+  double alpha_S = 0.01;   ///< α_S: |δx_i| ≤ α_S L_i (eq. 100); accepted (0, inf)
+  double re_ratio = 3.1;   ///< R_i = re_ratio L_i, R_ij = (R_i + R_j)/2 (eqs. 27–28); accepted (1, inf)
+  /// Throws mpskit::error listing every bad value.
+  void validate() const {
+    validator v("tanaka_shift_params");
+    v.non_negative("alpha_g", alpha_g).non_negative("alpha_T", alpha_T).positive("alpha_S", alpha_S);
+    if (!(alpha_p >= 0.0 && alpha_p < 1.0))
+      v.require(false, "alpha_p", mpskit::detail::concat("= ", alpha_p, ": must be in [0, 1)"));
+    if (!(std::isfinite(re_ratio) && re_ratio > 1.0))
+      v.require(false, "re_ratio", mpskit::detail::concat("= ", re_ratio, ": must be a finite number > 1 (R_ij > L_ij)"));
+    else if (std::isfinite(alpha_T) && !(alpha_T < re_ratio))
+      v.require(false, "alpha_T",
+                mpskit::detail::concat("= ", alpha_T, ": must be < re_ratio = ", re_ratio, " (eq. 95 divides by R_ij - alpha_T L_ij)"));
+    v.throw_if_any();
+  }
+};
+
+/// What one evaluation did.
+struct tanaka_shift_report {
+  index_t active = 0;            ///< particles computed (active[i] = 1)
+  index_t moved = 0;             ///< active particles with δx ≠ 0
+  index_t limited = 0;           ///< displacements scaled down to α_S L_i (eq. 100)
+  index_t projected = 0;         ///< tangential_only particles projected with a non-zero normal (eq. 99)
+  index_t unprojected = 0;       ///< tangential_only particles with n = 0: left unprojected (I − 0⊗0 = I)
+  index_t coincident_pairs = 0;  ///< directed pairs at r = 0 left out of eq. (94)
+  double max_shift_over_L = 0.0; ///< max_i |δx_i| / L_i after the limit
+};
+
+namespace detail {
+/// Target distance r*_ij, Tanaka 2018 eq. (95): L_ij up to α_T L_ij, then linear to R_ij at R_ij.
+inline double target_distance(double r, double Lij, double Rij, double alpha_T) noexcept {
+  const double rT = alpha_T * Lij;
+  if (r <= rT) return Lij;
+  return (Rij - Lij) / (Rij - alpha_T * Lij) * (r - rT) + Lij;
+}
+}  // namespace detail
+
+/// Shifting displacement δx (D × m, m = active.size()) of Tanaka 2018 eqs. (93)–(100), nothing moved.
+///
+/// - x: positions of every list row (real particles, then ghosts such as imaginary wall copies);
+///   L: their diameters (x.cols() entries, finite and > 0); nl: built over x with
+///   `per_particle_radius{&L, r}` for some r ≥ re_ratio (any skin); pairs are read with the support
+///   {per_particle_radius{&L, re_ratio}, pair_mean}, i.e. r_ij < R_ij (eqs. 28–29).
+/// - participates(j): j counts as a neighbour (non-isolated fluid or wall copy).
+/// - Rows i < m with active[i] = 1 are computed (non-isolated real fluid); others get δx = 0.
+///   grad_c (⟨∇c⟩_i), n (outward unit normal or 0) and tangential_only (eq. 99) must cover ≥ m rows.
+/// Returns the counters; dx is resized to D × m.
+template <int D, Execution E, class Participates>
+tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eigen::VectorXd& L,
+                                              const search::neighbour_list<D>& nl,
+                                              const Participates& participates, const points<D>& grad_c,
+                                              const points<D>& n,
+                                              const std::vector<std::uint8_t>& tangential_only,
+                                              const std::vector<std::uint8_t>& active,
+                                              const tanaka_shift_params& p, points<D>& dx) {
+  p.validate();
+  const index_t rows = x.cols();
+  const index_t m = static_cast<index_t>(active.size());
+  if (nl.rows() != rows) fail("tanaka_shift: the neighbour list has ", nl.rows(), " rows for ", rows, " positions");
+  if (L.size() != rows) fail("tanaka_shift: L has ", L.size(), " entries for ", rows, " positions");
+  if (m > rows) fail("tanaka_shift: active has ", m, " entries for ", rows, " positions (accepted: at most x.cols())");
+  if (grad_c.cols() < m) fail("tanaka_shift: grad_c has ", grad_c.cols(), " columns, need >= active.size() = ", m);
+  if (n.cols() < m) fail("tanaka_shift: n has ", n.cols(), " columns, need >= active.size() = ", m);
+  if (static_cast<index_t>(tangential_only.size()) < m)
+    fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
+  for (index_t i = 0; i < rows; ++i)
+    if (!(std::isfinite(L[i]) && L[i] > 0.0))
+      fail("tanaka_shift: L[", i, "] = ", L[i], ": must be a finite number > 0");
+
+  const search::support<search::per_particle_radius> sup{search::per_particle_radius{&L, p.re_ratio},
+                                                         search::radius_rule::pair_mean};
+  dx.setZero(D, m);
+  // Per-particle outcome codes, summed afterwards in fixed blocks (thread-count independent).
+  std::vector<std::uint8_t> moved(static_cast<std::size_t>(m), 0), limited(static_cast<std::size_t>(m), 0),
+      projected(static_cast<std::size_t>(m), 0), unprojected(static_cast<std::size_t>(m), 0);
+  std::vector<index_t> coincident(static_cast<std::size_t>(m), 0);
+
+  for_each_particle(e, m, [&](index_t i) {
+    const std::size_t k = static_cast<std::size_t>(i);
+    if (!active[k]) return;
+    const double Li = L[i];
+    vec<D> sum_g = vec<D>::Zero();  // Σ_j w_ij (x_j + r*_ij x_ji/|x_ji| − x_i)   (eq. 94 minus x_i Σ w)
+    double sum_w = 0.0;             // Σ_j w_ij                                   (eq. 94)
+    double penalty = 0.0;           // Σ_j w_ij ε_ij L_ij                         (eqs. 96–97, length form)
+    index_t zero_pairs = 0;
+    nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
+      if (!participates(j)) return;
+      const double r = std::sqrt(r2);
+      const double Lij = 0.5 * (Li + L[j]);   // averaged diameter (below eq. 94)
+      const double Rij = p.re_ratio * Lij;    // R_ij = (R_i + R_j)/2 (eq. 28)
+      const double w = kernel::quadratic::w(r, Rij);  // eq. 29
+      const double pen_edge = (1.0 - p.alpha_p) * Lij;
+      if (r < pen_edge) penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
+      if (r2 == 0.0) {  // x_ji/|x_ji| undefined: out of eq. 94
+        ++zero_pairs;
+        return;
+      }
+      // Eq. 94: the target point of neighbour j is x_j + r*_ij x_ji/|x_ji| with x_ji = x_i − x_j = −x_ij,
+      // i.e. x_j moved by r*_ij toward i. Its offset from x_i is x_ij − r* x_ij/r = x_ij (1 − r*/r).
+      // Two particles alone at r = 0.5 L: r* = L (eq. 95, r ≤ α_T L), offset = −x_ij: i is sent to
+      // distance L from j, away from j (pushed apart). At r = 2 L (R = 3.1 L): r* = 2.096 L > r, so
+      // i is again pushed away, by w (r* − r) = 0.127 × 0.096 L: eq. 95 never pulls inside R_ij.
+      const double rs = detail::target_distance(r, Lij, Rij, p.alpha_T);
+      sum_g += (w * (1.0 - rs / r)) * xij;
+      sum_w += w;
+    });
+    coincident[k] = zero_pairs;
+    vec<D> d = vec<D>::Zero();
+    if (sum_w > 0.0) {
+      const vec<D> gx = sum_g / sum_w;  // g_i − x_i (eq. 94)
+      if (gx.norm() > p.alpha_g * Li) d = gx;  // eq. 93
+    }
+    const vec<D> gc = grad_c.col(i);
+    const double gnorm = gc.norm();
+    if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0)
+      d -= (penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|; eq. 98: δx = δx* + δx**
+    if (tangential_only[k]) {
+      const vec<D> ni = n.col(i);
+      if (ni.squaredNorm() > 0.0) {
+        d -= ni.dot(d) * ni;  // eq. 99: (I − n⊗n) δx
+        projected[k] = 1;
+      } else {
+        unprojected[k] = 1;
+      }
+    }
+    const double len = d.norm(), cap = p.alpha_S * Li;
+    if (len > cap) {  // eq. 100: scaled down, direction kept (stays tangential after eq. 99)
+      d *= cap / len;
+      limited[k] = 1;
+    }
+    moved[k] = (d.array() != 0.0).any() ? 1 : 0;
+    dx.col(i) = d;
+  });
+
+  tanaka_shift_report rep;
+  const auto count = [&](const std::vector<std::uint8_t>& v) {
+    return reduce(e, m, index_t{0}, [&](index_t i) { return index_t{v[static_cast<std::size_t>(i)]}; },
+                  [](index_t a, index_t b) { return a + b; });
+  };
+  rep.active = reduce(e, m, index_t{0}, [&](index_t i) { return index_t{active[static_cast<std::size_t>(i)] != 0}; },
+                      [](index_t a, index_t b) { return a + b; });
+  rep.moved = count(moved);
+  rep.limited = count(limited);
+  rep.projected = count(projected);
+  rep.unprojected = count(unprojected);
+  rep.coincident_pairs = reduce(e, m, index_t{0}, [&](index_t i) { return coincident[static_cast<std::size_t>(i)]; },
+                                [](index_t a, index_t b) { return a + b; });
+  rep.max_shift_over_L = reduce(
+      e, m, 0.0, [&](index_t i) { return dx.col(i).norm() / L[i]; }, [](double a, double b) { return std::max(a, b); });
+  return rep;
+}
+
+/// Commits a shift: x_i += δx_i and u_i += (∇u)_i δx_i (Tanaka 2018 eq. 91, first-order Taylor) for
+/// i < dx.cols(). grad_u(i) returns mat<D> with (∇u)_ab = ∂u_a/∂x_b, evaluated at the unshifted
+/// positions (e.g. the caller's LSMPS type-A velocity gradient, computed before this call).
+template <int D, Execution E, class GradU>
+void apply_tanaka_shift(E e, const points<D>& dx, const GradU& grad_u, points<D>& x, points<D>& u) {
+  const index_t m = dx.cols();
+  if (x.cols() < m || u.cols() < m)
+    fail("apply_tanaka_shift: x has ", x.cols(), " and u has ", u.cols(), " columns, need >= dx.cols() = ", m);
+  for_each_particle(e, m, [&](index_t i) {
+    const vec<D> d = dx.col(i);
+    if ((d.array() == 0.0).all()) return;  // unshifted particles keep x and u bitwise
+    const mat<D> G = grad_u(i);
+    u.col(i) += G * d;  // eq. 91
+    x.col(i) += d;
+  });
+}
+
+}  // namespace mpskit::regularize

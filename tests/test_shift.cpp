@@ -1,0 +1,394 @@
+// regularize/tanaka_shift.hpp (Tanaka 2018 §4.7, eqs. 93–100) and the LSMPS wall cases of issue #7
+// (examples/cases/polygon_tank.hpp, examples/cases/tanaka_dam_break.hpp).
+// Random inputs use a seed printed with each case; set MPSKIT_SEED to reproduce or vary it.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "mpskit/regularize/tanaka_shift.hpp"
+#include "mpskit/search/neighbour_list.hpp"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+using namespace mpskit;
+
+namespace {
+
+std::uint64_t test_seed() {
+  const char* s = std::getenv("MPSKIT_SEED");
+  return s ? std::strtoull(s, nullptr, 10) : 20261122ull;
+}
+
+constexpr double L0 = 0.01;  // particle diameter of the shift tests (m)
+
+/// m^D lattice of spacing L0 at (k + ½) L0, each coordinate jittered uniformly by ±jitter·L0.
+template <int D>
+points<D> lattice(int m, int m_last, double jitter, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> U(-jitter, jitter);
+  index_t n = m_last;
+  for (int a = 0; a + 1 < D; ++a) n *= m;
+  points<D> x(D, n);
+  for (index_t k = 0; k < n; ++k) {
+    index_t r = k;
+    for (int a = 0; a < D; ++a) {
+      const int ma = a + 1 < D ? m : m_last;
+      x(a, k) = (static_cast<double>(r % ma) + 0.5 + (jitter > 0.0 ? U(rng) : 0.0)) * L0;
+      r /= ma;
+    }
+  }
+  return x;
+}
+
+/// Periodic box [0, m L0) on the axes flagged.
+template <int D>
+search::domain<D> periodic_box(int m, int m_last, std::array<bool, D> axes) {
+  search::domain<D> d;
+  d.periodic = axes;
+  for (int a = 0; a < D; ++a) d.hi[a] = (a + 1 < D ? m : m_last) * L0;
+  return d;
+}
+
+template <int D>
+search::neighbour_list<D> build_list(const points<D>& x, const Eigen::VectorXd& L, const search::domain<D>& dom = {}) {
+  search::neighbour_list<D> nl;
+  nl.build(exec::seq{}, x, search::per_particle_radius{&L, 3.1}, search::build_options<D>{0.0, dom});
+  return nl;
+}
+
+struct all_participate {
+  bool operator()(index_t) const { return true; }
+};
+
+/// Everything the shift needs, for particles 0..n−1 all active, no normals, zero ∇c.
+template <int D>
+struct shift_case {
+  points<D> x;
+  Eigen::VectorXd L;
+  search::domain<D> dom{};
+  search::neighbour_list<D> nl;
+  points<D> grad_c, n, dx;
+  std::vector<std::uint8_t> tangential, active;
+  explicit shift_case(points<D> xx, const search::domain<D>& d = {}) : x(std::move(xx)), dom(d) {
+    L = Eigen::VectorXd::Constant(x.cols(), L0);
+    grad_c.setZero(D, x.cols());
+    n.setZero(D, x.cols());
+    tangential.assign(static_cast<std::size_t>(x.cols()), 0);
+    active.assign(static_cast<std::size_t>(x.cols()), 1);
+  }
+  void build() { nl = build_list<D>(x, L, dom); }
+  template <class E = exec::seq, class P = all_participate>
+  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {}) {
+    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx);
+  }
+};
+
+/// Eqs. (93)–(100) written literally, O(n²), for a non-periodic cloud (the reference of the library's
+/// rearranged sums): g_i = Σ w (x_j + r* x_ji/|x_ji|)/Σ w, δx** = −Σ w ε L_ij ∇c/|∇c| (L_ij: mpskit's
+/// dimensional reading of eq. 96), then eq. 99 and eq. 100.
+template <int D, class P>
+points<D> literal_shift(const shift_case<D>& c, const P& part, const regularize::tanaka_shift_params& p) {
+  const index_t m = static_cast<index_t>(c.active.size());
+  points<D> out = points<D>::Zero(D, m);
+  for (index_t i = 0; i < m; ++i) {
+    if (!c.active[static_cast<std::size_t>(i)]) continue;
+    vec<D> num = vec<D>::Zero();
+    double den = 0.0, pen = 0.0;
+    for (index_t j = 0; j < c.x.cols(); ++j) {
+      if (j == i || !part(j)) continue;
+      const vec<D> xji = c.x.col(i) - c.x.col(j);
+      const double r = xji.norm();
+      const double Lij = 0.5 * (c.L[i] + c.L[j]), Rij = 0.5 * (p.re_ratio * c.L[i] + p.re_ratio * c.L[j]);
+      if (!(r < Rij)) continue;
+      const double w = (r / Rij - 1.0) * (r / Rij - 1.0);  // eq. 29
+      const double rs = r <= p.alpha_T * Lij
+                            ? Lij
+                            : (Rij - Lij) / (Rij - p.alpha_T * Lij) * (r - p.alpha_T * Lij) + Lij;  // eq. 95
+      num += w * (c.x.col(j) + rs * xji / r);
+      den += w;
+      if (r < (1.0 - p.alpha_p) * Lij) pen += w * ((1.0 - p.alpha_p) * Lij - r) / Lij * Lij;  // eq. 97 × L_ij
+    }
+    vec<D> d = vec<D>::Zero();
+    if (den > 0.0) {
+      const vec<D> g = num / den;  // eq. 94
+      if ((g - c.x.col(i)).norm() > p.alpha_g * c.L[i]) d = g - c.x.col(i);  // eq. 93
+    }
+    const vec<D> gc = c.grad_c.col(i);
+    if (gc.norm() > 0.0) d += -pen * gc / gc.norm();  // eqs. 96, 98
+    if (c.tangential[static_cast<std::size_t>(i)]) {
+      const vec<D> ni = c.n.col(i);
+      const mat<D> proj = mat<D>::Identity() - ni * ni.transpose();
+      d = (proj * d).eval();  // eq. 99
+    }
+    if (d.norm() > p.alpha_S * c.L[i]) d *= p.alpha_S * c.L[i] / d.norm();  // eq. 100
+    out.col(i) = d;
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_SUITE("tanaka_shift") {
+  TEST_CASE_TEMPLATE("regularize: tanaka shift is zero on a perfect periodic lattice", Dim, std::integral_constant<int, 2>,
+                     std::integral_constant<int, 3>) {
+    constexpr int D = Dim::value;
+    const int m = D == 2 ? 12 : 8;  // period ≥ 8 L0 > 2 R = 6.2 L0: one image per neighbour
+    std::mt19937_64 rng(0);
+    std::array<bool, D> all{};
+    all.fill(true);
+    shift_case<D> c(lattice<D>(m, m, 0.0, rng), periodic_box<D>(m, m, all));
+    c.build();
+    // Defaults: every particle is interior; the symmetric sums of eq. 94 cancel to rounding (far below
+    // α_g L = 1e-3 L, so eq. 93 returns exactly 0), no pair is closer than 0.9 L (no penalty), ∇c = 0.
+    const regularize::tanaka_shift_report r = c.run();
+    CHECK(r.active == c.x.cols());
+    CHECK(r.moved == 0);
+    CHECK((c.dx.array() == 0.0).all());
+    // α_g = 0 exposes the raw centre of mass: zero by symmetry up to the rounding of ~30–120 terms of
+    // size ≤ 0.2 L each (tolerance 1e-14 L, about 50 ulps of L).
+    regularize::tanaka_shift_params p;
+    p.alpha_g = 0.0;
+    c.run(p);
+    const double worst = c.dx.cwiseAbs().maxCoeff() / L0;
+    MESSAGE("max |g - x| / L on the perfect lattice (alpha_g = 0): " << worst);
+    CHECK(worst <= 1e-14);
+  }
+
+  TEST_CASE_TEMPLATE("regularize: tanaka shift sends a displaced particle back toward its site, limited to alpha_S L",
+                     Dim, std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    constexpr int D = Dim::value;
+    const int m = D == 2 ? 12 : 8;
+    std::mt19937_64 rng(0);
+    std::array<bool, D> all{};
+    all.fill(true);
+    shift_case<D> c(lattice<D>(m, m, 0.0, rng), periodic_box<D>(m, m, all));
+    // Displace one particle by 0.2 L along an axis (2D) or the cube diagonal (3D): by the lattice's
+    // mirror symmetries the restoring displacement is anti-parallel to the displacement.
+    const index_t k = c.x.cols() / 2 + m / 2;
+    vec<D> e = vec<D>::Ones();
+    if constexpr (D == 2) e = vec<D>(1.0, 0.0);
+    e.normalize();
+    c.x.col(k) += 0.2 * L0 * e;
+    c.build();
+    // Unlimited first (α_S huge): the raw δx* of eqs. 93–95 points back and is shorter than the offset.
+    regularize::tanaka_shift_params p;
+    p.alpha_S = 1e6;
+    c.run(p);
+    const vec<D> raw = c.dx.col(k);
+    MESSAGE("unlimited restoring shift / L: " << raw.norm() / L0 << " (offset 0.2, alpha_S 0.01)");
+    CHECK(raw.dot(e) < 0.0);                                 // back toward the site
+    CHECK((raw - raw.dot(e) * e).norm() <= 1e-14 * L0);      // along the displacement (symmetry)
+    CHECK(raw.norm() < 0.2 * L0);                            // no overshoot
+    // Defaults: eq. 100 keeps the direction and cuts the length to min(|raw|, α_S L). In 2D the raw
+    // shift exceeds α_S L (measured 0.014 L), in 3D along the diagonal it does not (0.0045 L).
+    const regularize::tanaka_shift_report r = c.run();
+    const vec<D> d = c.dx.col(k);
+    CAPTURE(d.transpose());
+    const double cap = 0.01 * L0;
+    CHECK(d.norm() == doctest::Approx(std::min(raw.norm(), cap)).epsilon(1e-14));
+    CHECK((d - d.norm() / raw.norm() * raw).norm() <= 1e-15 * L0);
+    if (D == 2) {
+      CHECK(raw.norm() > cap);
+      CHECK(r.limited >= 1);
+      CHECK(r.max_shift_over_L == doctest::Approx(0.01).epsilon(1e-14));
+    }
+  }
+
+  TEST_CASE("regularize: tanaka shift pushes an overlapping pair apart along its line (penalty, eqs. 96-97)") {
+    const double ang = 0.37;
+    const vec<2> e(std::cos(ang), std::sin(ang));
+    points<2> x(2, 2);
+    x.col(0) = vec<2>(0.1, 0.2);
+    x.col(1) = x.col(0) + 0.5 * L0 * e;  // r = 0.5 L
+    shift_case<2> c(x);
+    c.grad_c.col(0) = 3.0 * e;  // c grows toward the neighbour (the caller's LSMPS ∇c)
+    c.grad_c.col(1) = -3.0 * e;
+    c.build();
+    // Penalty alone: α_g huge switches eq. 93 off, α_S huge switches eq. 100 off.
+    regularize::tanaka_shift_params p;
+    p.alpha_g = 1e6;
+    p.alpha_S = 1e6;
+    c.run(p);
+    const double w = (0.5 / 3.1 - 1.0) * (0.5 / 3.1 - 1.0);  // eq. 29 at r = 0.5 L, R = 3.1 L
+    const double depth = (0.9 - 0.5) * L0;                    // eq. 97 × L_ij: (1 − α_p) L − r
+    CHECK((c.dx.col(0) + w * depth * e).norm() <= 1e-15 * L0);  // −w ε L ∇c/|∇c| (rounding only)
+    CHECK((c.dx.col(1) - w * depth * e).norm() <= 1e-15 * L0);
+    // Centre of mass alone (no ∇c): eq. 94 puts i at the target point at distance r* = L from j.
+    c.grad_c.setZero();
+    p.alpha_g = 0.001;
+    c.run(p);
+    CHECK((c.dx.col(0) + 0.5 * L0 * e).norm() <= 1e-15 * L0);
+    // Defaults: both terms push apart, limited to α_S L along the line.
+    c.grad_c.col(0) = 3.0 * e;
+    c.grad_c.col(1) = -3.0 * e;
+    const regularize::tanaka_shift_report r = c.run();
+    CHECK(r.limited == 2);
+    CHECK((c.dx.col(0) + 0.01 * L0 * e).norm() <= 1e-15 * L0);
+    CHECK((c.dx.col(1) - 0.01 * L0 * e).norm() <= 1e-15 * L0);
+  }
+
+  TEST_CASE("regularize: tanaka shift of surface particles is tangential (eq. 99)") {
+    const std::uint64_t seed = test_seed();
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    const int m = 12, rows = 8;
+    shift_case<2> c(lattice<2>(m, rows, 0.15, rng), periodic_box<2>(m, rows, {true, false}));
+    c.build();
+    // Top row: surface particles with a tilted outward normal; ∇c points into the fluid there.
+    const vec<2> nrm(std::sin(0.3), std::cos(0.3));
+    index_t top = 0, moved_top = 0;
+    for (index_t i = 0; i < c.x.cols(); ++i)
+      if (c.x(1, i) > (rows - 1) * L0) {
+        c.tangential[static_cast<std::size_t>(i)] = 1;
+        c.n.col(i) = nrm;
+        c.grad_c.col(i) = vec<2>(0.0, -50.0);
+        ++top;
+      }
+    const regularize::tanaka_shift_report r = c.run();
+    CHECK(r.projected == top);
+    double worst = 0.0;
+    for (index_t i = 0; i < c.x.cols(); ++i)
+      if (c.tangential[static_cast<std::size_t>(i)]) {
+        worst = std::max(worst, std::abs(c.dx.col(i).dot(nrm)));
+        moved_top += c.dx.col(i).norm() > 0.0;
+      }
+    MESSAGE("max |dx . n| / L over " << top << " surface particles: " << worst / L0);
+    CHECK(worst <= 1e-14 * L0);  // one projection of a vector ≤ 0.01 L: rounding ~1e-18 L
+    CHECK(moved_top > 0);        // jittered: the tangential part is not zero
+  }
+
+  TEST_CASE("regularize: tanaka shift matches eqs. 93-100 written literally (random diameters, masks)") {
+    const std::uint64_t seed = test_seed() + 1;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    shift_case<2> c(lattice<2>(14, 10, 0.25, rng));
+    std::uniform_real_distribution<double> U(0.8, 1.25), A(0.0, 2.0 * std::numbers::pi), G(-40.0, 40.0);
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      c.L[i] = U(rng) * L0;
+      c.grad_c.col(i) = vec<2>(G(rng), G(rng));
+      const double a = A(rng);
+      c.n.col(i) = vec<2>(std::cos(a), std::sin(a));
+      c.tangential[static_cast<std::size_t>(i)] = i % 3 == 0;
+      c.active[static_cast<std::size_t>(i)] = i % 11 != 0;
+    }
+    c.active.resize(c.active.size() - 7);  // the last 7 rows act as ghosts (neighbours only)
+    const auto part = [](index_t j) { return j % 5 != 1; };
+    c.build();
+    for (const double alpha_S : {0.01, 1e6}) {
+      CAPTURE(alpha_S);
+      regularize::tanaka_shift_params p;
+      p.alpha_S = alpha_S;
+      const regularize::tanaka_shift_report r = c.run(p, exec::seq{}, part);
+      const points<2> ref = literal_shift<2>(c, part, p);
+      REQUIRE(c.dx.cols() == ref.cols());
+      // The library sums x_ij (1 − r*/r) instead of forming g_i − x_i from absolute positions
+      // (~0.1 m): rounding ≤ 1e-15 m ≈ 1e-13 L; tolerance 1e-12 L.
+      CHECK((c.dx - ref).cwiseAbs().maxCoeff() <= 1e-12 * L0);
+      CHECK(r.moved > 0);
+      if (alpha_S < 1.0) CHECK(r.limited > 0);
+    }
+  }
+
+  TEST_CASE("regularize: apply_tanaka_shift reproduces a linear velocity field (eq. 91)") {
+    const std::uint64_t seed = test_seed() + 2;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    shift_case<2> c(lattice<2>(10, 10, 0.2, rng));
+    c.build();
+    c.run();
+    mat<2> A;
+    A << 0.3, -1.2, 2.0, 0.7;
+    points<2> u = A * c.x;
+    points<2> x = c.x;
+    regularize::apply_tanaka_shift<2>(exec::seq{}, c.dx, [&](index_t) { return A; }, x, u);
+    // u = A x is linear, so the first-order Taylor update is exact: u_new = A x_new to rounding.
+    CHECK((u - A * x).cwiseAbs().maxCoeff() <= 1e-15);
+    CHECK((x - c.x - c.dx).cwiseAbs().maxCoeff() <= 1e-17);
+  }
+
+  TEST_CASE("regularize: tanaka shift refuses bad input") {
+    using P = regularize::tanaka_shift_params;
+    CHECK_NOTHROW(P{}.validate());
+    P p;
+    p.alpha_g = -1.0;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("alpha_g"), mpskit::error);
+    p = P{};
+    p.alpha_T = 3.1;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("alpha_T"), mpskit::error);
+    p = P{};
+    p.alpha_p = 1.0;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("alpha_p"), mpskit::error);
+    p = P{};
+    p.alpha_S = 0.0;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("alpha_S"), mpskit::error);
+    p = P{};
+    p.re_ratio = 1.0;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("re_ratio"), mpskit::error);
+    p = P{};
+    p.alpha_S = std::nan("");
+    CHECK_THROWS_AS(p.validate(), mpskit::error);
+
+    std::mt19937_64 rng(0);
+    shift_case<2> c(lattice<2>(6, 6, 0.0, rng));
+    c.build();
+    c.L[3] = 0.0;
+    CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("L[3]"), mpskit::error);
+    c.L[3] = L0;
+    c.grad_c.resize(2, 5);
+    CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("grad_c"), mpskit::error);
+    c.grad_c.setZero(2, c.x.cols());
+    c.tangential.resize(3);
+    CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("tangential_only"), mpskit::error);
+    c.tangential.assign(static_cast<std::size_t>(c.x.cols()), 0);
+    c.active.assign(static_cast<std::size_t>(c.x.cols()) + 1, 1);
+    CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("active"), mpskit::error);
+  }
+}
+
+TEST_SUITE("shift_threads") {
+  TEST_CASE("regularize: tanaka shift is bitwise identical for 1 and 2 threads") {
+#ifdef _OPENMP
+    const std::uint64_t seed = test_seed() + 3;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    const int m = 72;  // 5184 particles ≥ parallel_min_items (4096): exec::par really threads
+    shift_case<2> c(lattice<2>(m, m, 0.15, rng), periodic_box<2>(m, m, {true, true}));
+    std::uniform_real_distribution<double> G(-40.0, 40.0);
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      c.grad_c.col(i) = vec<2>(G(rng), G(rng));
+      c.tangential[static_cast<std::size_t>(i)] = i % 4 == 0;
+      c.n.col(i) = c.grad_c.col(i).normalized();
+    }
+    c.build();
+    const int before = max_threads();
+    omp_set_num_threads(1);
+    const regularize::tanaka_shift_report r1 = c.run({}, exec::par{});
+    const points<2> d1 = c.dx;
+    omp_set_num_threads(2);
+    REQUIRE(max_threads() == 2);
+    const regularize::tanaka_shift_report r2 = c.run({}, exec::par{});
+    const points<2> d2 = c.dx;
+    omp_set_num_threads(before);
+    const regularize::tanaka_shift_report rs = c.run({}, exec::seq{});
+    CHECK(r1.moved > 0);
+    CHECK(r1.limited > 0);
+    CHECK((d1.array() == d2.array()).all());
+    CHECK((d1.array() == c.dx.array()).all());  // exec::seq too
+    for (const auto* r : {&r2, &rs}) {
+      CHECK(r1.moved == r->moved);
+      CHECK(r1.limited == r->limited);
+      CHECK(r1.projected == r->projected);
+      CHECK(r1.max_shift_over_L == r->max_shift_over_L);
+    }
+#else
+    MESSAGE("built without OpenMP: nothing to compare");
+#endif
+  }
+}
