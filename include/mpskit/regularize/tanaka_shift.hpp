@@ -55,6 +55,12 @@ struct tanaka_shift_params {
   }
 };
 
+/// The scene policy naming this shifting (`using shifting = mpskit::regularize::tanaka_shift;`), run by
+/// scheme::lsmps_semi_implicit; the numbers are in tanaka_shift_params.
+struct tanaka_shift final {
+  using params_type = tanaka_shift_params;
+};
+
 /// What one evaluation did.
 struct tanaka_shift_report {
   index_t active = 0;            ///< particles computed (active[i] = 1)

@@ -178,6 +178,7 @@ class lsmps_semi_implicit {
   lsmps_semi_implicit(const params_type& p, state_type initial, const geometry_type* walls = nullptr)
       : p_(checked(p)), op_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls) {
     solver_.set_params(p_.solver);
+    adjoint_solver_.set_params(p_.solver);
     if constexpr (has_walls) {
       if (!walls_) fail("lsmps_semi_implicit: the scene has wall::imaginary but no geometry was given");
     } else {
@@ -238,6 +239,7 @@ class lsmps_semi_implicit {
     // 2. Imaginary copies (ghost range).
     if constexpr (has_walls) make_copies();
     const index_t nt = s_.size();
+    if constexpr (!has_walls) normal_.setZero(D, nt);
     sizes_from_volumes();
     // 3. Neighbour list over real + copies.
     build_list();
@@ -417,6 +419,9 @@ class lsmps_semi_implicit {
     }
   }
 
+  /// Tanaka's shifting (eqs. 93–100) from this step's list at x^k; δu = ∇u δx (eq. 91) with the corrected
+  /// velocities' LSMPS gradient (copies at the wall velocity). Surface particles and particles with a wall
+  /// copy (within α_w L of a wall) shift tangentially only (eq. 99).
   void shift_particles() {
     const index_t n = s_.n_real(), nt = s_.size();
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
@@ -426,26 +431,27 @@ class lsmps_semi_implicit {
     for_each_particle(exec::par{}, n, [&](index_t i) {
       if (participates(i)) grad_c.col(i) = op_.gradient(x, nl_, i, c_pack_, participates);
     });
-    std::vector<std::uint8_t> tangential(static_cast<std::size_t>(nt), 0), active(static_cast<std::size_t>(nt), 0);
-    const double near = p_.walls.alpha_w;
+    std::vector<std::uint8_t> tangential(static_cast<std::size_t>(nt), 0), active(static_cast<std::size_t>(n), 0);
     for (index_t i = 0; i < n; ++i) {
       active[static_cast<std::size_t>(i)] = participates(i);
       tangential[static_cast<std::size_t>(i)] = surface_[static_cast<std::size_t>(i)];
     }
-    for (index_t k = n; k < nt; ++k) tangential[static_cast<std::size_t>(parent(k))] = 1;  // near a wall
-    (void)near;
-    dx_.setZero(D, nt);
-    c_.shift_limited += static_cast<long>(regularize::tanaka_shift_displacement(
-        exec::par{}, x, L_, nl_, participates, grad_c, normal_, tangential, active, p_.shift, dx_));
-    // δu = ∇u δx (eq. 91) with this step's corrected velocities, copies at the wall velocity.
+    shift_normal_ = normal_;
+    for (index_t k = n; k < nt; ++k) {  // near a wall: the wall's normal (toward the fluid; eq. 99 is sign-free)
+      const index_t i = parent(k);
+      if (!surface_[static_cast<std::size_t>(i)]) shift_normal_.col(i) = normal_.col(k);
+      tangential[static_cast<std::size_t>(i)] = 1;
+    }
+    const auto rep = regularize::tanaka_shift_displacement(exec::par{}, x, L_, nl_, participates, grad_c,
+                                                           shift_normal_, tangential, active, p_.shift, dx_);
+    c_.shift_limited += static_cast<long>(rep.limited);
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
-    points<D> du(D, n);
     for_each_particle(exec::par{}, n, [&](index_t i) {
-      du.col(i).setZero();
-      if (!active[static_cast<std::size_t>(i)]) return;
-      for (int a = 0; a < D; ++a) du(a, i) = op_.gradient(x, nl_, i, comp_[a], participates).dot(dx_.col(i));
+      if (!active[static_cast<std::size_t>(i)] || (dx_.col(i).array() == 0.0).all()) return;
+      mat<D> G;
+      for (int a = 0; a < D; ++a) G.row(a) = op_.gradient(x, nl_, i, comp_[a], participates).transpose();
+      s_.u().col(i) += G * dx_.col(i);  // eq. 91
     });
-    s_.u().leftCols(n) += du;
   }
   vec<D> dx_shift(index_t i) const {
     if constexpr (has_shift) return dx_.col(i);
@@ -563,14 +569,22 @@ class lsmps_semi_implicit {
     }
   }
 
-  /// Parts of the unknowns' graph with no Dirichlet neighbour get p = 0 at their lowest-id particle
-  /// (row replaced by p = 0). Counted.
+  /// Parts of the unknowns' graph with no Dirichlet neighbour (periodic boxes) are singular: p is defined up
+  /// to a constant and the system is solvable only for a right-hand side orthogonal to the left null vector
+  /// y (Aᵀ y = 0). The LSMPS matrix is not symmetric, so y is not constant, and removing the mean source
+  /// is not enough (measured on the Taylor–Green vortex: the dropped row's residual exceeded |b|_max
+  /// within 5 steps and the run blew up near the pinned particle at t ≈ 0.2 s). So, per floating part:
+  ///  1. y from Aᵀ with the pinned row replaced by y_pin = 1 (one extra solve, floating parts only);
+  ///  2. b ← b − (yᵀb / yᵀV) V (a uniform source correction, V the particle volumes: the discrete form of
+  ///     removing the mean source);
+  ///  3. the pinned row replaced by p_pin = 0 (lowest-id particle). The solution then satisfies every row.
+  /// Counted in pinned_components.
   void pin_floating_parts() {
     const index_t m = A_.rows();
     std::vector<index_t> comp(static_cast<std::size_t>(m), npos);
     std::vector<index_t> stack, members;
-    // Undirected connectivity: the LSMPS matrix is not symmetric, so use A + Aᵀ.
-    const ppe::matrix At = A_.transpose();
+    std::vector<std::pair<index_t, std::vector<index_t>>> floating;  // (pin, members)
+    const ppe::matrix At = A_.transpose();  // connectivity of A + Aᵀ (A is not symmetric)
     for (index_t r0 = 0; r0 < m; ++r0) {
       if (comp[static_cast<std::size_t>(r0)] != npos) continue;
       bool has_dirichlet = false;
@@ -596,20 +610,41 @@ class lsmps_semi_implicit {
         visit(A_);
         visit(At);
       }
-      if (has_dirichlet) continue;
-      ++c_.pinned_components;
-      // A floating part is solvable only for a compatible right-hand side (continuum: ∫ ∇·(cof ∇p) = 0
-      // over a periodic box, so ∫ source = 0). Its volume-weighted mean is removed before pinning; without
-      // this the discrete mismatch lands on the pinned particle's neighbours (measured: a pressure spike
-      // next to the pin that grew until the Taylor–Green run failed at t = 0.18 s).
-      const auto& V = s_.template get<field::volume>();
-      double bsum = 0.0, vsum = 0.0;
-      for (index_t r : members) {
-        const double v = V[rows_[static_cast<std::size_t>(r)]];
-        bsum += v * b_[r];
-        vsum += v;
+      if (!has_dirichlet) floating.emplace_back(pin, members);
+    }
+    if (floating.empty()) return;
+    c_.pinned_components += static_cast<long>(floating.size());
+    // 1. Left null vectors: B = Aᵀ, rows outside floating parts → y = 0, pinned rows → y = 1.
+    ppe::matrix B = At;
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(m), y = Eigen::VectorXd::Zero(m);
+    std::vector<std::uint8_t> keep(static_cast<std::size_t>(m), 0);
+    for (const auto& [pin, mem] : floating)
+      for (index_t r : mem) keep[static_cast<std::size_t>(r)] = 1;
+    for (const auto& [pin, mem] : floating) {
+      keep[static_cast<std::size_t>(pin)] = 0;
+      rhs[pin] = 1.0;
+    }
+    for (index_t r = 0; r < m; ++r) {
+      if (keep[static_cast<std::size_t>(r)]) continue;
+      for (ppe::matrix::InnerIterator it(B, r); it; ++it) it.valueRef() = it.index() == r ? 1.0 : 0.0;
+    }
+    for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
+    if (adjoint_solver_.compute(B) != Eigen::Success)
+      fail("PPE: the preconditioner of the left-null-vector system failed at step ", c_.steps, ", t = ", t_, " s");
+    const ppe::solve_report rep = adjoint_solver_.solve(rhs, y);
+    if (rep.info != Eigen::Success)
+      fail("PPE: the left-null-vector solve of a floating part did not converge at step ", c_.steps, ", t = ", t_,
+           " s: relative residual ", rep.residual, " after ", rep.iterations, " iterations");
+    // 2.–3. Compatible right-hand side, then the pin.
+    const auto& V = s_.template get<field::volume>();
+    for (const auto& [pin, mem] : floating) {
+      double yb = 0.0, yv = 0.0;
+      for (index_t r : mem) {
+        yb += y[r] * b_[r];
+        yv += y[r] * V[rows_[static_cast<std::size_t>(r)]];
       }
-      for (index_t r : members) b_[r] -= bsum / vsum;
+      if (yv != 0.0)
+        for (index_t r : mem) b_[r] -= yb / yv * V[rows_[static_cast<std::size_t>(r)]];
       for (ppe::matrix::InnerIterator it(A_, pin); it; ++it) it.valueRef() = it.index() == pin ? 1.0 : 0.0;
       b_[pin] = 0.0;
     }
@@ -627,13 +662,13 @@ class lsmps_semi_implicit {
   op_type op_;
   source_type source_;
   time_step_controller dt_ctrl_;
-  solver_type solver_;
+  solver_type solver_, adjoint_solver_;
   state_type s_;
   const geometry_type* walls_ = nullptr;
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
-  points<D> ut_, xold_, normal_, dx_;
+  points<D> ut_, xold_, normal_, shift_normal_, dx_;
   std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
