@@ -3,14 +3,19 @@
 // Random inputs use a seed printed with each case; set MPSKIT_SEED to reproduce or vary it.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "cases/polygon_tank.hpp"
+#include "cases/tanaka_dam_break.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 
@@ -390,5 +395,188 @@ TEST_SUITE("shift_threads") {
 #else
     MESSAGE("built without OpenMP: nothing to compare");
 #endif
+  }
+}
+
+// ---- LSMPS wall cases of issue #7 -------------------------------------------------------------------
+namespace {
+
+/// Smallest signed distance of the particles to the walls.
+template <int D>
+double min_signed_distance(const geometry::polygon_set<D>& walls, const points<D>& x) {
+  double s = std::numeric_limits<double>::infinity();
+  for (index_t i = 0; i < x.cols(); ++i) s = std::min(s, walls.signed_distance(vec<D>(x.col(i))));
+  return s;
+}
+
+/// Centroid of element e.
+template <int D>
+vec<D> centroid(const geometry::polygon_set<D>& walls, index_t e) {
+  const mat<D> v = walls.element(e);
+  return v.rowwise().mean();
+}
+
+template <int D>
+void check_polygon_tank(const cases::polygon_tank_config& cfg) {
+  const cases::polygon_tank<D> t = cases::make_polygon_tank<D>(cfg);
+  const double L = cfg.L;
+  CAPTURE(D);
+  CAPTURE(cfg.lid);
+  CAPTURE(cfg.angle_deg);
+  REQUIRE(t.size() > 0);
+  REQUIRE(static_cast<index_t>(t.faces.size()) == t.walls.size());
+  CHECK(t.walls.quality().flipped == 0);  // the hand-wound elements were already consistent
+  CHECK(t.walls.quality().inconsistent.empty());
+  CHECK(t.walls.quality().degenerate.empty());
+  if constexpr (D == 3) CHECK(t.walls.quality().closed() == cfg.lid);  // closed mesh iff lid
+  // Every particle at signed distance ≥ L/2 (the fill's rule, 1e-12 m for rounding) and inside the
+  // analytic tank below the fill depth.
+  const double smin = min_signed_distance<D>(t.walls, t.x);
+  MESSAGE("D = " << D << ": " << t.size() << " particles, min signed distance / L = " << smin / L
+                 << ", surface height z_s = " << t.surface_height << " (H = " << t.H << ")");
+  CHECK(smin >= 0.5 * L - 1e-12);
+  bool all_inside = true;
+  for (index_t i = 0; i < t.size(); ++i)
+    all_inside = all_inside && t.inside(t.x.col(i)) && t.x(D - 1, i) < t.H;
+  CHECK(all_inside);
+  // Volume: the floor, right wall, end walls and surface are lattice-aligned (W, H, B multiples of L)
+  // and matched exactly; only the incline's band of cells with 0 < s < L/2 is dropped (about half a
+  // layer) and cells crossing it are kept. Bound: one layer, |N L^D − V(H)| ≤ L × wetted incline.
+  const double V = t.volume(t.H), NV = static_cast<double>(t.size()) * std::pow(L, D);
+  const double bound = L * t.incline_wetted(t.H);
+  MESSAGE("N L^D = " << NV << ", V(H) = " << V << ", |diff| / (L x wetted incline) = " << std::abs(NV - V) / bound);
+  CHECK(std::abs(NV - V) <= bound);
+  // z_s solves V(z_s) = N L^D; so it is below H by at most one layer normal to the incline.
+  CHECK(t.volume(t.surface_height) == doctest::Approx(NV).epsilon(1e-12));
+  CHECK(t.surface_height <= t.H + 1e-12);
+  CHECK(t.surface_height >= t.H - L);
+  CHECK(t.hydrostatic_pressure(t.corner(), 1000.0, 9.81) == doctest::Approx(1000.0 * 9.81 * t.surface_height));
+  // Normals point into the fluid: a point just off each element's centroid along its normal is inside
+  // the analytic tank, and just behind it is outside.
+  bool into = true;
+  for (index_t e = 0; e < t.walls.size(); ++e) {
+    const vec<D> c = centroid<D>(t.walls, e), n = t.walls.element_normal(e);
+    into = into && t.inside(vec<D>(c + 1e-3 * L * n)) && !t.inside(vec<D>(c - 1e-3 * L * n));
+  }
+  CHECK(into);
+  // Concave corner: each face's neighbour leaves the corner on the fluid side of the face (the normals
+  // converge), n_incline · (floor point − corner) > 0 and n_floor · (incline point − corner) > 0; the
+  // interior angle is 180° − θ.
+  index_t e_inc = npos, e_floor = npos;
+  for (index_t e = 0; e < t.walls.size(); ++e) {
+    if (t.faces[static_cast<std::size_t>(e)] == cases::tank_face::incline && e_inc == npos) e_inc = e;
+    if (t.faces[static_cast<std::size_t>(e)] == cases::tank_face::floor && e_floor == npos) e_floor = e;
+  }
+  REQUIRE(e_inc != npos);
+  REQUIRE(e_floor != npos);
+  const vec<D> n_inc = t.walls.element_normal(e_inc), n_floor = t.walls.element_normal(e_floor);
+  const vec<D> corner = t.corner();
+  vec<D> floor_pt = corner, incline_pt = corner;
+  floor_pt[0] += 0.5 * cfg.W;
+  incline_pt[0] -= 0.5 * cfg.tank_height * t.cot();
+  incline_pt[D - 1] += 0.5 * cfg.tank_height;
+  CHECK(n_inc.dot(floor_pt - corner) > 0.0);
+  CHECK(n_floor.dot(incline_pt - corner) > 0.0);
+  const double theta = cfg.angle_deg * std::numbers::pi / 180.0;
+  CHECK(std::acos(std::clamp(n_inc.dot(n_floor), -1.0, 1.0)) == doctest::Approx(theta).epsilon(1e-12));
+  // The closest point of a particle near the corner is on one of the two faces (no spurious wall).
+  CHECK(t.walls.signed_distance(vec<D>(corner + 0.5 * L * (n_inc + n_floor).normalized())) > 0.0);
+}
+
+}  // namespace
+
+TEST_SUITE("cases_lsmps") {
+  TEST_CASE("cases: polygon tank (2D and 3D, lid and open top, 45 and 60 degrees)") {
+    for (const bool lid : {true, false})
+      for (const double angle : {60.0, 45.0}) {
+        cases::polygon_tank_config cfg;
+        cfg.lid = lid;
+        cfg.angle_deg = angle;
+        check_polygon_tank<2>(cfg);
+        check_polygon_tank<3>(cfg);
+      }
+    cases::polygon_tank_config fine;
+    fine.L = 0.004;  // W, H, B multiples of L; 50 × 50 rows in 2D
+    check_polygon_tank<2>(fine);
+  }
+
+  TEST_CASE("cases: polygon tank refuses bad configurations") {
+    cases::polygon_tank_config c;
+    c.angle_deg = 20.0;
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<2>(c), doctest::Contains("angle_deg"), mpskit::error);
+    c = {};
+    c.tank_height = c.H;
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<2>(c), doctest::Contains("tank_height"), mpskit::error);
+    c = {};
+    c.L = -1.0;
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<3>(c), doctest::Contains("L = -1"), mpskit::error);
+    c = {};
+    c.B = 0.005;
+    CHECK_NOTHROW(cases::make_polygon_tank<2>(c));  // B is a 3D number
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<3>(c), doctest::Contains("L: is 0.01"), mpskit::error);
+  }
+
+  TEST_CASE("cases: Tanaka dam break vessel, column, probe and front") {
+    for (const double L : {0.001, 0.003, 0.0025}) {
+      CAPTURE(L);
+      cases::tanaka_dam_break_config cfg;
+      cfg.L = L;
+      const cases::tanaka_dam_break d = cases::make_tanaka_dam_break(cfg);
+      const double smin = min_signed_distance<2>(d.walls, d.x);
+      CHECK(smin >= 0.5 * L - 1e-12);
+      // Column area 0.1 × 0.2 m²: left wall and floor are lattice-aligned; the right and top free
+      // faces lose at most one layer when L does not divide 0.1 or 0.2. Bound: L × (0.1 + 0.2).
+      const double NV = static_cast<double>(d.size()) * L * L, V = 0.1 * 0.2;
+      MESSAGE("L = " << L << ": " << d.size() << " particles (paper, L = 1 mm: " << cases::tanaka_dam_break::paper_particles
+                     << "), N L^2 / V = " << NV / V);
+      CHECK(std::abs(NV - V) <= L * (0.1 + 0.2));
+      if (L == 0.001) CHECK(d.size() == 100 * 200);  // L divides both sides
+      bool in_column = true;
+      for (index_t i = 0; i < d.size(); ++i)
+        in_column = in_column && d.x(0, i) > -0.2 && d.x(0, i) < -0.1 && d.x(1, i) > 0.0 && d.x(1, i) < 0.2;
+      CHECK(in_column);
+      // Normals into the vessel: left wall +x, floor +y, right wall −x (elements in that order).
+      REQUIRE(d.walls.size() == 3);
+      CHECK((d.walls.element_normal(0) - vec<2>(1.0, 0.0)).norm() <= 1e-15);
+      CHECK((d.walls.element_normal(1) - vec<2>(0.0, 1.0)).norm() <= 1e-15);
+      CHECK((d.walls.element_normal(2) - vec<2>(-1.0, 0.0)).norm() <= 1e-15);
+      // Probe (195 mm, 5 mm): 5 mm from the right wall and from the floor.
+      CHECK((d.probe() - vec<2>(0.195, 0.005)).norm() <= 1e-15);
+      CHECK(d.walls.signed_distance(d.probe()) == doctest::Approx(0.005).epsilon(1e-12));
+      // Front at t = 0: the column's right face, h = h0 when L divides h0 (h* = 1, as the first sample
+      // of cases/dam_break.hpp); otherwise h0 − L < h ≤ h0.
+      const Eigen::VectorXd diam = d.diameters();
+      const auto all = [](index_t) { return true; };
+      const double h = d.front(d.x, diam, d.size(), all);
+      CHECK(h <= d.h0() + 1e-12);
+      CHECK(h > d.h0() - L);
+      if (L == 0.001 || L == 0.0025) CHECK(d.front_star(d.x, diam, d.size(), all) == doctest::Approx(1.0).epsilon(1e-12));
+      // Only counted particles define the front; none counted gives NaN.
+      const index_t far = [&] {
+        index_t k = 0;
+        for (index_t i = 0; i < d.size(); ++i)
+          if (d.x(0, i) > d.x(0, k)) k = i;
+        return k;
+      }();
+      const double x_far = d.x(0, far);
+      const auto not_front_column = [&](index_t i) { return d.x(0, i) < x_far - 0.5 * L; };
+      CHECK(d.front(d.x, diam, d.size(), not_front_column) == doctest::Approx(h - L).epsilon(1e-12));
+      CHECK(std::isnan(d.front(d.x, diam, d.size(), [](index_t) { return false; })));
+      CHECK(d.t_star(0.1) == doctest::Approx(0.1 * std::sqrt(2.0 * 9.8 / 0.1)));
+    }
+  }
+
+  TEST_CASE("cases: Tanaka dam break refuses bad configurations") {
+    cases::tanaka_dam_break_config c;
+    c.L = 0.0;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("L = 0"), mpskit::error);
+    c = {};
+    c.column_height = 0.4;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("column_height"), mpskit::error);
+    c = {};
+    c.vessel_right = -0.3;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("vessel_right"), mpskit::error);
+    const cases::tanaka_dam_break d = cases::make_tanaka_dam_break({.L = 0.01});
+    CHECK_THROWS_AS(d.front(d.x, d.diameters(), d.size() + 1, [](index_t) { return true; }), mpskit::error);
   }
 }

@@ -45,12 +45,12 @@ struct tanaka_shift_params {
     validator v("tanaka_shift_params");
     v.non_negative("alpha_g", alpha_g).non_negative("alpha_T", alpha_T).positive("alpha_S", alpha_S);
     if (!(alpha_p >= 0.0 && alpha_p < 1.0))
-      v.require(false, "alpha_p", mpskit::detail::concat("= ", alpha_p, ": must be in [0, 1)"));
+      v.require(false, "alpha_p", mpskit::detail::concat("is ", alpha_p, ", must be in [0, 1)"));
     if (!(std::isfinite(re_ratio) && re_ratio > 1.0))
-      v.require(false, "re_ratio", mpskit::detail::concat("= ", re_ratio, ": must be a finite number > 1 (R_ij > L_ij)"));
+      v.require(false, "re_ratio", mpskit::detail::concat("is ", re_ratio, ", must be a finite number > 1 (R_ij > L_ij)"));
     else if (std::isfinite(alpha_T) && !(alpha_T < re_ratio))
       v.require(false, "alpha_T",
-                mpskit::detail::concat("= ", alpha_T, ": must be < re_ratio = ", re_ratio, " (eq. 95 divides by R_ij - alpha_T L_ij)"));
+                mpskit::detail::concat("is ", alpha_T, ", must be < re_ratio = ", re_ratio, " (eq. 95 divides by R_ij - alpha_T L_ij)"));
     v.throw_if_any();
   }
 };
