@@ -18,6 +18,7 @@
 #include "cases/tanaka_dam_break.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/search/neighbour_list.hpp"
+#include "mpskit/wall/imaginary.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -90,8 +91,9 @@ struct shift_case {
   }
   void build() { nl = build_list<D>(x, L, dom); }
   template <class E = exec::seq, class P = all_participate>
-  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {}) {
-    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx);
+  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {},
+                                      const points<D>* n_wall = nullptr) {
+    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx, n_wall);
   }
 };
 
@@ -267,6 +269,49 @@ TEST_SUITE("tanaka_shift") {
     MESSAGE("max |dx . n| / L over " << top << " surface particles: " << worst / L0);
     CHECK(worst <= 1e-14 * L0);  // one projection of a vector ≤ 0.01 L: rounding ~1e-18 L
     CHECK(moved_top > 0);        // jittered: the tangential part is not zero
+  }
+
+  TEST_CASE_TEMPLATE("regularize: tanaka shift with a second (wall) normal removes both normal components", Dim,
+                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    constexpr int D = Dim::value;
+    const std::uint64_t seed = test_seed() + 6;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    const int m = D == 2 ? 12 : 7;
+    shift_case<D> c(lattice<D>(m, m, 0.2, rng));
+    std::normal_distribution<double> N(0.0, 1.0);
+    points<D> nw(D, c.x.cols());
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      vec<D> a, b;
+      for (int k = 0; k < D; ++k) {
+        a[k] = N(rng);
+        b[k] = N(rng);
+      }
+      c.n.col(i) = a.normalized();
+      nw.col(i) = b.normalized();  // random: not orthogonal to n (the Gram–Schmidt step matters)
+      c.tangential[static_cast<std::size_t>(i)] = 1;
+      c.grad_c.col(i) = 30.0 * vec<D>(b - a);
+    }
+    c.build();
+    regularize::tanaka_shift_params p;
+    p.alpha_S = 1e6;  // the unlimited vectors are larger: a stronger test of the projection
+    const regularize::tanaka_shift_report r = c.run(p, exec::seq{}, all_participate{}, &nw);
+    CHECK(r.projected == c.x.cols());
+    double along_n = 0.0, along_w = 0.0, size = 0.0;
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      along_n = std::max(along_n, std::abs(c.dx.col(i).dot(c.n.col(i))));
+      along_w = std::max(along_w, std::abs(c.dx.col(i).dot(nw.col(i))));
+      size = std::max(size, c.dx.col(i).norm());
+    }
+    MESSAGE("max |dx.n| / L = " << along_n / L0 << ", max |dx.n_wall| / L = " << along_w / L0
+                                << ", max |dx| / L = " << size / L0);
+    // Two projections of vectors ≤ 0.3 L: rounding ~1e-16 L; in 2D two independent normals leave nothing.
+    CHECK(along_n <= 1e-14 * L0);
+    CHECK(along_w <= 1e-14 * L0);
+    if (D == 2) CHECK(size <= 1e-14 * L0);
+    if (D == 3) CHECK(size > 1e-3 * L0);  // the component along n × n_wall survives
+    points<D> bad(D, 3);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &bad), doctest::Contains("n_wall"), mpskit::error);
   }
 
   TEST_CASE("regularize: tanaka shift matches eqs. 93-100 written literally (random diameters, masks)") {
@@ -544,6 +589,60 @@ TEST_SUITE("cases_lsmps") {
     cases::polygon_tank_config fine;
     fine.L = 0.004;  // W, H, B multiples of L; 50 × 50 rows in 2D
     check_polygon_tank<2>(fine);
+  }
+
+  TEST_CASE_TEMPLATE("cases: tanaka shift with imaginary copies keeps polygon-tank particles >= L/2 from the walls",
+                     Dim, std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    constexpr int D = Dim::value;
+    const cases::polygon_tank<D> t = cases::make_polygon_tank<D>({});
+    const index_t nr = t.size();
+    const double L = t.L;
+    const int passes = D == 2 ? 100 : 10;
+    points<D> x = t.x;
+    double smin = 1e300;
+    index_t moved = 0;
+    for (int it = 0; it < passes; ++it) {
+      // Step-start layout of the LSMPS solver: real fluid, then its imaginary copies (wall/imaginary.hpp).
+      Eigen::VectorXd Lall = Eigen::VectorXd::Constant(nr, L);
+      points<D> xa = x;
+      std::vector<wall::imaginary_copy<D>> copies;
+      wall::make_imaginary<D>(xa, Lall, nr, [](index_t) { return true; }, t.walls, wall::imaginary_params{}, copies);
+      wall::write_ghosts<D>(copies, nr, xa, Lall);
+      search::neighbour_list<D> nl;
+      nl.build(exec::seq{}, xa, search::per_particle_radius{&Lall, 3.1}, search::build_options<D>{});
+      // tangential_only: particles with a copy (near a wall: n = the first copy's wall normal, n_wall =
+      // a second copy's, at the concave corner) and the top row (n = +z; the wall normal moves to n_wall).
+      points<D> gc = points<D>::Zero(D, nr), n = points<D>::Zero(D, nr), nw = points<D>::Zero(D, nr), dx;
+      std::vector<std::uint8_t> tang(static_cast<std::size_t>(nr), 0), act(static_cast<std::size_t>(nr), 1);
+      for (const wall::imaginary_copy<D>& cp : copies) {
+        if (n.col(cp.parent).squaredNorm() == 0.0)
+          n.col(cp.parent) = cp.normal;
+        else
+          nw.col(cp.parent) = cp.normal;
+        tang[static_cast<std::size_t>(cp.parent)] = 1;
+      }
+      for (index_t i = 0; i < nr; ++i)
+        if (x(D - 1, i) > t.H - L) {
+          if (n.col(i).squaredNorm() > 0.0) nw.col(i) = n.col(i);
+          n.col(i) = vec<D>::Unit(D - 1);
+          tang[static_cast<std::size_t>(i)] = 1;
+        }
+      const regularize::tanaka_shift_report r = regularize::tanaka_shift_displacement<D>(
+          exec::seq{}, xa, Lall, nl, [](index_t) { return true; }, gc, n, tang, act, regularize::tanaka_shift_params{},
+          dx, &nw);
+      moved = std::max(moved, r.moved);
+      x += dx;
+      smin = std::min(smin, min_signed_distance<D>(t.walls, x));
+    }
+    double drift = 0.0;
+    for (index_t i = 0; i < nr; ++i) drift = std::max(drift, (x.col(i) - t.x.col(i)).norm());
+    MESSAGE("D = " << D << ": " << passes << " passes, up to " << moved << " of " << nr
+                   << " particles moved per pass, max drift " << drift / L << " L, min signed distance "
+                   << smin / L << " L");
+    // Near-wall particles move parallel to their (flat) walls and are pushed off the concave corner;
+    // others come no closer than L (α_w L) before they get a copy: min s stays L/2 (1e-12 L rounding).
+    CHECK(smin >= 0.5 * L * (1.0 - 1e-12));
+    CHECK(moved > 0);  // the lattice does not fit the incline: shifting is not idle
   }
 
   TEST_CASE("cases: polygon tank refuses bad configurations") {

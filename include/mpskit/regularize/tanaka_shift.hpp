@@ -84,6 +84,9 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 /// - participates(j): j counts as a neighbour (non-isolated fluid or wall copy).
 /// - Rows i < m with active[i] = 1 are computed (non-isolated real fluid); others get δx = 0.
 ///   grad_c (⟨∇c⟩_i), n (outward unit normal or 0) and tangential_only (eq. 99) must cover ≥ m rows.
+/// - n_wall (optional, ≥ m columns, unit or 0): a second normal for tangential_only particles near a
+///   wall (the wall normal of their imaginary copy); eq. 99 then removes the components along n and
+///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
 tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eigen::VectorXd& L,
@@ -92,7 +95,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
                                               const points<D>& n,
                                               const std::vector<std::uint8_t>& tangential_only,
                                               const std::vector<std::uint8_t>& active,
-                                              const tanaka_shift_params& p, points<D>& dx) {
+                                              const tanaka_shift_params& p, points<D>& dx,
+                                              const points<D>* n_wall = nullptr) {
   p.validate();
   const index_t rows = x.cols();
   const index_t m = static_cast<index_t>(active.size());
@@ -101,6 +105,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   if (m > rows) fail("tanaka_shift: active has ", m, " entries for ", rows, " positions (accepted: at most x.cols())");
   if (grad_c.cols() < m) fail("tanaka_shift: grad_c has ", grad_c.cols(), " columns, need >= active.size() = ", m);
   if (n.cols() < m) fail("tanaka_shift: n has ", n.cols(), " columns, need >= active.size() = ", m);
+  if (n_wall && n_wall->cols() < m)
+    fail("tanaka_shift: n_wall has ", n_wall->cols(), " columns, need >= active.size() = ", m);
   if (static_cast<index_t>(tangential_only.size()) < m)
     fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
   for (index_t i = 0; i < rows; ++i)
@@ -156,12 +162,24 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       d -= (penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|; eq. 98: δx = δx* + δx**
     if (tangential_only[k]) {
       const vec<D> ni = n.col(i);
+      bool any = false;
       if (ni.squaredNorm() > 0.0) {
         d -= ni.dot(d) * ni;  // eq. 99: (I − n⊗n) δx
-        projected[k] = 1;
-      } else {
-        unprojected[k] = 1;
+        any = true;
       }
+      if (n_wall) {
+        // Second constraint (a surface particle next to a wall, or a concave corner): eq. 99 applied
+        // to the part of the wall normal orthogonal to n (Gram–Schmidt), so δx ⊥ n and δx ⊥ n_wall.
+        vec<D> t2 = n_wall->col(i);
+        if (any) t2 -= ni.dot(t2) * ni;
+        const double t2n = t2.norm();
+        if (t2n > 1e-8) {  // else n_wall is 0 or parallel to n: nothing more to remove
+          t2 /= t2n;
+          d -= t2.dot(d) * t2;
+          any = true;
+        }
+      }
+      (any ? projected[k] : unprojected[k]) = 1;
     }
     const double len = d.norm(), cap = p.alpha_S * Li;
     if (len > cap) {  // eq. 100: scaled down, direction kept (stays tangential after eq. 99)
