@@ -152,6 +152,7 @@ TEST_SUITE("imaginary") {
     const std::vector<wall::imaginary_copy<2>> t = copies_of<2>(vec<2>(0.2 * L, h + 0.5 * L), L, w, &rep);
     REQUIRE(t.size() == 1);
     CHECK(rep.convex_duplicates_removed == 0);
+    CHECK(rep.smooth_duplicates_removed == 0);  // the riser's end point is not a candidate at all
     CHECK(t[0].element == 2);
     CHECK(t[0].normal.isApprox(vec<2>(0, 1), 1e-15));
   }

@@ -68,9 +68,11 @@ struct wall_visibility {
     if (j < i) std::swap(i, j);  // symmetric: the same segment is tested for (i, j) and (j, i)
     vec<D> d = x->col(j) - x->col(i);
     if (dom) dom->minimum_image(d);
-    if (clearance.size() == static_cast<std::size_t>(x->cols()) &&
-        clearance[static_cast<std::size_t>(i)] + clearance[static_cast<std::size_t>(j)] > d.norm())
-      return true;  // a segment touching a wall at p has |x_i − p| + |p − x_j| = r ≥ d_i + d_j
+    if (clearance.size() == static_cast<std::size_t>(x->cols())) {
+      // a segment touching a wall at p has r = |x_i − p| + |p − x_j| ≥ d_i + d_j
+      const double c = clearance[static_cast<std::size_t>(i)] + clearance[static_cast<std::size_t>(j)];
+      if (c * c > d.squaredNorm()) return true;
+    }
     const vec<D> a = end_point(i, x->col(i));
     const vec<D> b = end_point(j, (x->col(i) + d).eval());
     return !walls->crosses(a, b);
