@@ -20,7 +20,9 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <concepts>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/dimension.hpp"
@@ -89,6 +91,7 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 ///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
+  requires std::predicate<const Participates&, index_t>
 tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eigen::VectorXd& L,
                                               const search::neighbour_list<D>& nl,
                                               const Participates& participates, const points<D>& grad_c,
@@ -212,6 +215,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
 /// i < dx.cols(). grad_u(i) returns mat<D> with (∇u)_ab = ∂u_a/∂x_b, evaluated at the unshifted
 /// positions (e.g. the caller's LSMPS type-A velocity gradient, computed before this call).
 template <int D, Execution E, class GradU>
+  requires std::convertible_to<std::invoke_result_t<const GradU&, index_t>, mat<D>>
 void apply_tanaka_shift(E e, const points<D>& dx, const GradU& grad_u, points<D>& x, points<D>& u) {
   const index_t m = dx.cols();
   if (x.cols() < m || u.cols() < m)
