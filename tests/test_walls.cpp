@@ -22,6 +22,10 @@
 #include "mpskit/wall/imaginary.hpp"
 #include "mpskit/wall/visibility.hpp"
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 using namespace mpskit;
 using geometry::polygon_mesh;
 using geometry::polygon_set;
@@ -687,5 +691,65 @@ TEST_SUITE("bad_input") {
     std::vector<flag::type> flags;
     CHECK_THROWS_WITH_AS(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, 0.01), 1, w, {}, &flags),
                          doctest::Contains("flags has 0 entries"), mpskit::error);
+  }
+}
+
+TEST_SUITE("walls_threads") {
+  TEST_CASE("walls: copies, guard and visible lists are identical for 1 and 2 threads") {
+#ifdef _OPENMP
+    const std::uint64_t seed = test_seed();
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed + 1);
+    const double L = 0.01;
+    geometry::wall_collection<2> walls;
+    walls.add(polygon_set<2>(geometry::tank(vec<2>(0, 0), vec<2>(1, 1), 8)));
+    walls.add(polygon_set<2>(wall::double_sided(polyline({vec<2>(0.5, 0.0), vec<2>(0.5, 0.6)}))));
+    std::uniform_real_distribution<double> U(0.001, 0.999);
+    std::normal_distribution<double> G(0.0, 0.5 * L);
+    const index_t n = 12000;  // > parallel_min_items: exec::par really runs on two threads
+    points<2> x(2, n);
+    for (index_t i = 0; i < n; ++i) x.col(i) = vec<2>(U(rng), U(rng));
+    Eigen::VectorXd Lv = Eigen::VectorXd::Constant(n, L);
+    std::vector<wall::imaginary_copy<2>> c1, c2;
+    omp_set_num_threads(1);
+    wall::make_imaginary<2>(exec::par{}, x, Lv, n, all, walls, {}, c1);
+    omp_set_num_threads(2);
+    wall::make_imaginary<2>(exec::par{}, x, Lv, n, all, walls, {}, c2);
+    REQUIRE(c1.size() == c2.size());
+    bool same = true;
+    for (std::size_t k = 0; k < c1.size(); ++k)
+      same = same && c1[k].parent == c2[k].parent && c1[k].element == c2[k].element && c1[k].set == c2[k].set &&
+             c1[k].x == c2[k].x && c1[k].normal == c2[k].normal && c1[k].L == c2[k].L;
+    CHECK(same);
+    // guard: random moves of ~0.5 L, some through the tank walls and the baffle
+    points<2> x1 = x;
+    for (index_t i = 0; i < n; ++i) x1.col(i) += vec<2>(G(rng), G(rng));
+    points<2> y1 = x1, y2 = x1, u1 = points<2>::Ones(2, n), u2 = points<2>::Ones(2, n);
+    std::vector<flag::type> f1(static_cast<std::size_t>(n), 0u), f2 = f1;
+    omp_set_num_threads(1);
+    const index_t g1 = wall::guard_crossings<2>(exec::par{}, x, y1, u1, Lv, n, walls, {}, &f1);
+    omp_set_num_threads(2);
+    const index_t g2 = wall::guard_crossings<2>(exec::par{}, x, y2, u2, Lv, n, walls, {}, &f2);
+    CHECK(g1 > 0);
+    CHECK(g1 == g2);
+    CHECK(y1 == y2);
+    CHECK(u1 == u2);
+    CHECK(f1 == f2);
+    // visible lists over real + copies
+    wall::write_ghosts<2>(c1, n, x, Lv);
+    wall::wall_visibility<2, geometry::wall_collection<2>> v1{&walls, &x, n, &c1}, v2{&walls, &x, n, &c1};
+    search::neighbour_list<2> a, b;
+    omp_set_num_threads(1);
+    v1.prepare(exec::par{}, 3.1 * L);
+    a.build(exec::par{}, x, search::per_particle_radius{&Lv, 3.1}, {}, v1);
+    omp_set_num_threads(2);
+    v2.prepare(exec::par{}, 3.1 * L);
+    b.build(exec::par{}, x, search::per_particle_radius{&Lv, 3.1}, {}, v2);
+    CHECK(v1.clearance == v2.clearance);
+    CHECK(a.offsets() == b.offsets());
+    CHECK(a.indices() == b.indices());
+#else
+    MESSAGE("built without OpenMP: nothing to compare");
+#endif
   }
 }
