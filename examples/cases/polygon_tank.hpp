@@ -153,19 +153,22 @@ inline geometry::polygon_mesh<3> tank_mesh_3d(const polygon_tank_config& c, std:
   return m;
 }
 
-/// Fluid lattice (k + ½) L inside [lo, hi] kept where the signed distance is ≥ L/2 (1e-12 L rounding
-/// allowance for points exactly L/2 from a wall, e.g. the first row above the floor).
+}  // namespace detail
+
+/// Fluid particles on the lattice origin + (k + ½) L inside [lo, hi] (wall::polygon_fill) kept where the
+/// signed distance to the walls is ≥ L/2 (a 1e-12 L rounding allowance for points exactly L/2 from a
+/// wall, e.g. the first row above a lattice-aligned floor). No wall particles: the walls are polygons.
 template <int D>
-points<D> fill_half_spacing(const geometry::polygon_set<D>& walls, const vec<D>& lo, const vec<D>& hi, double L) {
-  const wall::particle_block<D> b = wall::polygon_fill<D>(walls, lo, hi, L);
-  std::vector<index_t> keep;
+points<D> fill_half_spacing(const geometry::polygon_set<D>& walls, const vec<D>& lo, const vec<D>& hi, double L,
+                            const vec<D>& origin = vec<D>::Zero()) {
+  const wall::particle_block<D> b = wall::polygon_fill<D>(walls, lo, hi, L, origin);
+  std::vector<std::size_t> keep;
   for (std::size_t k = 0; k < b.size(); ++k)
-    if (walls.signed_distance(b.x[k]) >= 0.5 * L * (1.0 - 1e-12)) keep.push_back(static_cast<index_t>(k));
+    if (walls.signed_distance(b.x[k]) >= 0.5 * L * (1.0 - 1e-12)) keep.push_back(k);
   points<D> x(D, static_cast<index_t>(keep.size()));
-  for (std::size_t k = 0; k < keep.size(); ++k) x.col(static_cast<index_t>(k)) = b.x[static_cast<std::size_t>(keep[k])];
+  for (std::size_t k = 0; k < keep.size(); ++k) x.col(static_cast<index_t>(k)) = b.x[keep[k]];
   return x;
 }
-}  // namespace detail
 
 /// Builds the tank: walls, fluid particles at spacing L below depth H with signed distance ≥ L/2, and
 /// the free-surface level z_s solving V(z_s) = N L^D (the particles' volume), which sets the
@@ -189,7 +192,7 @@ polygon_tank<D> make_polygon_tank(const polygon_tank_config& c = {}) {
   hi[0] = c.W;
   hi[D - 1] = c.H;
   if constexpr (D == 3) hi[1] = c.B;
-  points<D> x = detail::fill_half_spacing<D>(walls, lo, hi, c.L);
+  points<D> x = fill_half_spacing<D>(walls, lo, hi, c.L);
   if (x.cols() == 0) fail("make_polygon_tank: no fluid particle fits (L = ", c.L, ", H = ", c.H, ", W = ", c.W, ")");
   polygon_tank<D> t{c, std::move(walls), std::move(faces), std::move(x), c.L, c.H, 0.0};
   // z_s from W z + z² cot θ / 2 = A (A = N L^D, divided by B in 3D); the stable root 2A/(W + √(W² + 2A cot θ)).

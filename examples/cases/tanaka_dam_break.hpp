@@ -13,6 +13,7 @@
 #include <cmath>
 #include <limits>
 
+#include "cases/polygon_tank.hpp"
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/params.hpp"
@@ -96,13 +97,8 @@ inline tanaka_dam_break make_tanaka_dam_break(const tanaka_dam_break_config& c =
   c.validate();
   geometry::polygon_set<2> walls(geometry::tank(vec<2>(c.vessel_left, 0.0), vec<2>(c.vessel_right, c.vessel_height)));
   const vec<2> origin(c.vessel_left, 0.0);
-  const wall::particle_block<2> b =
-      wall::polygon_fill<2>(walls, origin, vec<2>(c.vessel_left + c.column_width, c.column_height), c.L, origin);
-  std::vector<std::size_t> keep;
-  for (std::size_t k = 0; k < b.size(); ++k)
-    if (walls.signed_distance(b.x[k]) >= 0.5 * c.L * (1.0 - 1e-12)) keep.push_back(k);
-  points<2> x(2, static_cast<index_t>(keep.size()));
-  for (std::size_t k = 0; k < keep.size(); ++k) x.col(static_cast<index_t>(k)) = b.x[keep[k]];
+  points<2> x = fill_half_spacing<2>(walls, origin, vec<2>(c.vessel_left + c.column_width, c.column_height), c.L,
+                                     origin);
   return tanaka_dam_break{c, std::move(walls), std::move(x), c.L};
 }
 
