@@ -148,7 +148,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       // i.e. x_j moved by r*_ij toward i. Its offset from x_i is x_ij − r* x_ij/r = x_ij (1 − r*/r).
       // Two particles alone at r = 0.5 L: r* = L (eq. 95, r ≤ α_T L), offset = −x_ij: i is sent to
       // distance L from j, away from j (pushed apart). At r = 2 L (R = 3.1 L): r* = 2.096 L > r, so
-      // i is again pushed away, by w (r* − r) = 0.127 × 0.096 L: eq. 95 never pulls inside R_ij.
+      // i is again pushed away, by w (r* − r) = 0.126 × 0.096 L: eq. 95 never pulls inside R_ij.
       const double rs = detail::target_distance(r, Lij, Rij, p.alpha_T);
       sum_g += (w * (1.0 - rs / r)) * xij;
       sum_w += w;
