@@ -616,6 +616,37 @@ TEST_SUITE("thin_walls") {
     CHECK(rows(plain) == rows(nl));  // nothing here is hidden by a wall
   }
 
+  TEST_CASE("walls: visibility across a periodic seam uses the minimum image") {
+    // wall x = 0.5 across the whole height; particles either side of the periodic seam x = 0 ≡ 1
+    const polygon_set<2> w(polyline({vec<2>(0.5, -1), vec<2>(0.5, 2)}));
+    points<2> x(2, 4);
+    x << 0.005, 0.995, 0.3, 0.7,  //
+        0.5, 0.5, 0.5, 0.5;
+    search::domain<2> dom;
+    dom.periodic = {true, false};
+    dom.lo << 0.0, 0.0;
+    dom.hi << 1.0, 0.0;
+    wall::wall_visibility<2> plain{&w, &x, 4}, periodic{&w, &x, 4, nullptr, &dom};
+    CHECK_FALSE(plain(0, 1));  // the straight segment 0.005 → 0.995 crosses the wall
+    CHECK(periodic(0, 1));     // the minimum image (0.01 long, through the seam) does not
+    CHECK(periodic(1, 0));
+    CHECK(periodic(1, 2));        // 0.995 → 0.3: the image through the seam (0.305) is shorter
+    CHECK_FALSE(plain(1, 2));
+    CHECK_FALSE(periodic(2, 3));  // 0.3 → 0.7: the direct segment (0.4) is the image, through the wall
+    CHECK_FALSE(periodic(3, 2));
+    // a second wall at x = 0.1 is met by the seam route 0.995 → 1.3 (≡ 0.3) on j's side only
+    geometry::wall_collection<2> two;
+    two.add(polygon_set<2>(polyline({vec<2>(0.5, -1), vec<2>(0.5, 2)})));
+    two.add(polygon_set<2>(polyline({vec<2>(0.1, -1), vec<2>(0.1, 2)})));
+    wall::wall_visibility<2, geometry::wall_collection<2>> p2{&two, &x, 4, nullptr, &dom};
+    CHECK(p2(0, 1));  // 0.995 → 1.005 ≡ 0.005: neither wall
+    CHECK_FALSE(p2(1, 2));
+    CHECK_FALSE(p2(2, 1));
+    p2.prepare(exec::seq{}, 1.0);  // clearances 0.495 + 0.2 > 0.305 must not skip the image pair
+    CHECK_FALSE(p2(1, 2));
+    CHECK(p2(0, 1));
+  }
+
   TEST_CASE("walls: 3D double-sided plate hides the other side") {
     const double L = 0.05;
     polygon_mesh<3> plate;

@@ -66,16 +66,27 @@ struct wall_visibility {
   /// True unless the segment between the two particles (a copy's end pulled off its wall) touches a wall.
   bool operator()(index_t i, index_t j) const {
     if (j < i) std::swap(i, j);  // symmetric: the same segment is tested for (i, j) and (j, i)
-    vec<D> d = x->col(j) - x->col(i);
+    const vec<D> raw = x->col(j) - x->col(i);
+    vec<D> d = raw;
     if (dom) dom->minimum_image(d);
-    if (clearance.size() == static_cast<std::size_t>(x->cols())) {
-      // a segment touching a wall at p has r = |x_i − p| + |p − x_j| ≥ d_i + d_j
+    const bool shifted = d != raw;
+    // Clearance shortcut (unshifted pairs only: the clearances belong to the particles' own positions,
+    // not to their periodic images): a segment touching a wall at p has r = |x_i − p| + |p − x_j| ≥ d_i + d_j.
+    if (!shifted && clearance.size() == static_cast<std::size_t>(x->cols())) {
       const double c = clearance[static_cast<std::size_t>(i)] + clearance[static_cast<std::size_t>(j)];
       if (c * c > d.squaredNorm()) return true;
     }
     const vec<D> a = end_point(i, x->col(i));
     const vec<D> b = end_point(j, (x->col(i) + d).eval());
-    return !walls->crosses(a, b);
+    if (walls->crosses(a, b)) return false;
+    // Through a periodic seam the image segment is also tested from j's side, so a wall near either
+    // end (within one period of the particle's own position) is seen.
+    if (shifted) {
+      const vec<D> a2 = end_point(i, (x->col(j) - d).eval());
+      const vec<D> b2 = end_point(j, x->col(j));
+      if (walls->crosses(a2, b2)) return false;
+    }
+    return true;
   }
 
  private:
