@@ -37,6 +37,9 @@ struct geometric_params {
   double alpha_theta = 2.1;               ///< α_θ: neighbours within α_θ L_i (eq. 88); finite, > 0
   double theta1 = std::numbers::pi / 4;   ///< θ1: half-angle of the cones (eqs. 88–89); in (0, π)
   double theta2 = std::numbers::pi / 2;   ///< θ2: half-angle of the half-space of m_i (third step); in (0, π]
+  /// Radius of eqs. 88–89: `own` = α_θ L_i as printed (default); `pair_mean` = α_θ (L_i + L_j)/2, an mpskit
+  /// option for multi-resolution (docs/surface.md: fewer false surface flags at 2:1 interfaces); `max` refused.
+  search::radius_rule radius = search::radius_rule::own;
   /// Throws mpskit::error listing every bad value with its accepted range.
   void validate() const {
     validator v("geometric_params");
@@ -44,6 +47,7 @@ struct geometric_params {
     v.in_open_range("theta1", theta1, 0.0, std::numbers::pi);
     v.require(std::isfinite(theta2) && theta2 > 0.0 && theta2 <= std::numbers::pi, "theta2",
               mpskit::detail::concat("is ", theta2, "; must be in (0, pi]"));
+    v.require(radius != search::radius_rule::max, "radius", "is max; must be own (eq. 88) or pair_mean");
     v.throw_if_any();
   }
 };
@@ -73,7 +77,7 @@ template <int D, class Participates>
 geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L, const search::neighbour_list<D>& nl,
                                  const Participates& participates, const vec<D>& ni, const geometric_params& p,
                                  index_t i) {
-  const search::support<search::per_particle_radius> s{{&L, p.alpha_theta}, search::radius_rule::own};
+  const search::support<search::per_particle_radius> s{{&L, p.alpha_theta}, p.radius};
   const double cos1 = std::cos(p.theta1), cos2 = std::cos(p.theta2);
   geometric_result<D> out;
   if (ni.squaredNorm() == 0.0) {  // zero normal: inside unless alone (reading in the file comment)
@@ -112,7 +116,8 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L, c
 /// Sets surface[i] = 1 (surface) or 0 (inside) for the particles with wanted(i) (default: all; pass real
 /// fluid particles), from outward unit normals n (surface/normals.hpp; zero columns for degenerate ones).
 /// surface is resized to x.cols() when its size differs (new entries 0); other entries are untouched.
-/// The list must hold the pairs with r < α_θ L_i (a list built at ratio ≥ α_θ does). Throws
+/// The list must hold the pairs with r < α_θ L_i (or α_θ L_ij with pair_mean; a list built at ratio ≥ α_θ
+/// holds both, since lists store the `max` rule). Throws
 /// mpskit::error on bad p or sizes.
 template <int D, Execution E, class Participates, class Wanted = all_particles>
   requires Dimension<D>
