@@ -86,15 +86,34 @@ double packing_ratio_of(const points<D>& x, const Eigen::VectorXd& L, const sear
   const int A = p.radii;
   const double Li = L[i];
   const double Ri = p.re_ratio * Li;  // eq. 27
-  std::array<double, packing_ratio_max_radii> Ra{}, Na{};
-  for (int a = 0; a < A; ++a) {
-    Ra[static_cast<std::size_t>(a)] = 0.5 * Li + a * (Ri - Li) / (A - 1);  // eq. 39
-  }
+  const double R0 = 0.5 * Li, h = (Ri - Li) / (A - 1);  // eq. 39: ⟨R_i⟩_a = R0 + a h
+  // Each neighbour adds a ramp (R_a − lo) V_j / L_j on the radii a ∈ [a0, a1) and its full volume V_j on
+  // a ≥ a1 (eq. 35; eq. 36 has no cap, a1 = A). Both are written into difference arrays of the slope
+  // (coefficient of R_a) and the constant, and summed once: O(1) per neighbour instead of O(A). Only the
+  // radii at the ends of a ramp can fall on the other side by rounding, where the two branches agree.
+  std::array<double, packing_ratio_max_radii + 1> dS{}, dC{};
+  const auto first_at_least = [&](double v) {  // smallest a with R_a ≥ v, in [0, A]
+    if (v <= R0) return 0;
+    const double t = std::ceil((v - R0) / h);
+    return t >= A ? A : static_cast<int>(t);
+  };
+  const auto first_above = [&](double v) {  // smallest a with R_a > v, in [0, A]
+    if (v < R0) return 0;
+    const double t = std::floor((v - R0) / h) + 1.0;
+    return t >= A ? A : static_cast<int>(t);
+  };
   const auto add = [&](double r, double Lj, bool wall) {
     double Vj = Lj;
     for (int k = 1; k < D; ++k) Vj *= Lj;  // eq. 26
-    for (int a = 0; a < A; ++a)
-      Na[static_cast<std::size_t>(a)] += volume_function(Ra[static_cast<std::size_t>(a)], r, Lj, Vj, wall);
+    const double lo = r - 0.5 * Lj;
+    const int a0 = first_at_least(lo);
+    const int a1 = wall ? A : std::max(a0, first_above(r + 0.5 * Lj));
+    const double k = Vj / Lj;
+    dS[static_cast<std::size_t>(a0)] += k;
+    dS[static_cast<std::size_t>(a1)] -= k;
+    dC[static_cast<std::size_t>(a0)] -= k * lo;
+    dC[static_cast<std::size_t>(a1)] += k * lo;
+    if (!wall) dC[static_cast<std::size_t>(a1)] += Vj;  // the cap V_j of eq. 35 beyond r + L_j/2
   };
   add(0.0, Li, static_cast<bool>(is_wall(i)));  // particle i itself (eq. 34 sums over j ∈ F ∪ W, i included)
   nl.for_each_neighbour(x, i, search::support<search::per_particle_radius>{{&L, p.re_ratio}, search::radius_rule::max},
@@ -102,6 +121,15 @@ double packing_ratio_of(const points<D>& x, const Eigen::VectorXd& L, const sear
                           if (!participates(j)) return;
                           add(std::sqrt(r2), L[j], static_cast<bool>(is_wall(j)));
                         });
+  std::array<double, packing_ratio_max_radii> Ra{}, Na{};
+  double slope = 0.0, constant = 0.0;
+  for (int a = 0; a < A; ++a) {
+    const std::size_t u = static_cast<std::size_t>(a);
+    Ra[u] = R0 + a * h;
+    slope += dS[u];
+    constant += dC[u];
+    Na[u] = slope * Ra[u] + constant;  // ⟨N_i⟩_a of eq. 38
+  }
   // Least squares of eq. 37: dE/dc = 0 ⇒ c = Σ N_a V_a / Σ V_a² (the corrected eq. 40).
   double num = 0.0, den = 0.0;
   for (int a = 0; a < A; ++a) {
