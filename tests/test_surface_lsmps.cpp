@@ -627,6 +627,34 @@ TEST_SUITE("geometric_surface") {
     CHECK(geometric_of<2>(s.x, s.L, s.nl, everyone, tilted, geometric_params{}, deep).step == geometric_step::inside);
   }
 
+  TEST_CASE("surface: counts of a particle with more than 128 neighbours inside alpha_theta L equal brute force") {
+    // geometric_of keeps up to 128 neighbours for the third step and walks the list again beyond that; a
+    // particle of diameter 5 L among L particles has ≈ π (10.5)² ≈ 350 of them (2.1 · 5 L radius).
+    scene<2> s = slab<2>(40, 30, false);
+    const index_t big = 15 * 40 + 20;  // layer 15, column 20
+    s.L[big] = 5.0 * l0;
+    s.nl.build(exec::seq{}, s.x, search::per_particle_radius{&s.L, 3.1}, search::build_options<2>{0.0, s.dom});
+    const double t = 60.0 * pi / 180.0;
+    const vec<2> ni(std::cos(t), std::sin(t));
+    const geometric_result<2> r = geometric_of<2>(s.x, s.L, s.nl, everyone, ni, geometric_params{}, big);
+    index_t inside = 0, cone = 0, cone_prime = 0;
+    for (index_t j = 0; j < s.nf; ++j) {
+      if (j == big) continue;
+      vec<2> d = s.x.col(j) - s.x.col(big);
+      s.dom.minimum_image(d);
+      const double rr = d.norm();
+      if (!(rr < 2.1 * s.L[big])) continue;
+      ++inside;
+      cone += ni.dot(d) > rr * std::cos(pi / 4);
+      cone_prime += r.n_prime.dot(d) > rr * std::cos(pi / 4);
+    }
+    MESSAGE(inside << " neighbours inside 2.1 L_i; N_theta = " << r.n_theta << ", N'_theta = " << r.n_theta_prime);
+    CHECK(inside > 128);
+    CHECK(r.n_theta == cone);
+    CHECK(r.n_theta_prime == cone_prime);
+    CHECK(r.step == geometric_step::inside);
+  }
+
   TEST_CASE("surface: at a 2:1 resolution interface the pair-mean radius removes interior surface flags") {
     // Fine lattice (L) on [0, 10 L] × [0, 12 L] beside a coarse one (2 L) on [10 L, 20 L] × [0, 12 L], all free.
     // Eq. 88 as printed (radius α_θ L_i = 2.1 L for a fine particle) sees the coarse column 1.5 L away only

@@ -88,6 +88,13 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L, c
   }
   // Eq. 88: n_i · x_ij/|x_ij| > cos θ1, written n_i · x_ij > |x_ij| cos θ1 (no division; r = 0 never counts).
   // Third step: m_i = Σ x_ij / |Σ x_ij| over n_i · x_ij > |x_ij| cos θ2.
+  // The participating neighbours inside α_θ L_i are kept (up to `keep`) so the third step does not
+  // walk the list again; a larger neighbourhood (very mixed sizes) walks it a second time.
+  constexpr int keep = 128;
+  double kd[keep][D];
+  double kr[keep];
+  int kept = 0;
+  bool overflow = false;
   vec<D> msum = vec<D>::Zero();
   nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>& d, double r2) {
     if (!participates(j)) return;
@@ -95,6 +102,12 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L, c
     const double c = ni.dot(d);
     out.n_theta += c > r * cos1 ? 1 : 0;
     if (c > r * cos2) msum += d;
+    if (kept < keep) {
+      for (int a = 0; a < D; ++a) kd[kept][a] = d[a];
+      kr[kept++] = r;
+    } else {
+      overflow = true;
+    }
   });
   if (out.n_theta == 0) {
     out.step = geometric_step::cone;
@@ -105,10 +118,18 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L, c
   const vec<D> m = msum / mlen;
   out.n_prime = 2.0 * m.dot(ni) * ni - m;  // n′_i = 2(m_i·n_i)n_i − m_i: m reflected about n_i
   out.n_theta_prime = 0;
-  nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>& d, double r2) {
-    if (!participates(j)) return;
-    out.n_theta_prime += out.n_prime.dot(d) > std::sqrt(r2) * cos1 ? 1 : 0;  // eq. 89
-  });
+  if (!overflow) {
+    for (int q = 0; q < kept; ++q) {
+      double c = 0.0;
+      for (int a = 0; a < D; ++a) c += out.n_prime[a] * kd[q][a];
+      out.n_theta_prime += c > kr[q] * cos1 ? 1 : 0;  // eq. 89
+    }
+  } else {
+    nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>& d, double r2) {
+      if (!participates(j)) return;
+      out.n_theta_prime += out.n_prime.dot(d) > std::sqrt(r2) * cos1 ? 1 : 0;  // eq. 89
+    });
+  }
   if (out.n_theta_prime == 0) out.step = geometric_step::reflected_cone;
   return out;
 }
