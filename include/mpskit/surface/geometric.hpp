@@ -7,13 +7,15 @@
 /// caller through `participates`. docs/surface.md, "Tanaka 2018 (LSMPS scenes)".
 ///
 /// Readings (the paper leaves these open):
-/// - Neighbours of both counts and of m_i are the participating j with 0 < |x_ij| < α_θ L_i (eq. 88's
-///   radius also bounds m_i's sum: "the same particle count" of the third step). Wall copies are
-///   neighbours (they block the cone): the caller's `participates` includes them.
+/// - Neighbours of both counts and of m_i are the participating j with |x_ij| < α_θ L_i (eq. 88's radius
+///   also bounds m_i's sum: "the same particle count" of the third step; α_θ L_ij with the pair_mean
+///   option). A coincident neighbour (r = 0) lies in no cone. Wall copies are neighbours (they block the
+///   cone): the caller's `participates` includes them.
 /// - A zero normal (degenerate, surface/normals.hpp) makes the cone tests meaningless: the particle is
 ///   inside when it has at least one participating neighbour within α_θ L_i, else surface.
-/// - If Σ x_ij over the half-space neighbours is zero (impossible when θ1 ≤ θ2, since then the cone of
-///   step two is inside the half-space and holds ≥ 1 neighbour), the third step is skipped (inside).
+/// - If Σ x_ij over the half-space neighbours is zero (impossible when θ1 ≤ θ2 ≤ π/2: the cone of step
+///   two then lies in the half-space, holds ≥ 1 neighbour and every term has n_i·x_ij > 0), the third step
+///   is skipped (inside).
 /// Only wanted particles are classified (real fluid); imaginary copies inherit their parent's flag
 /// (§4.6, last sentence) — that is the caller's job.
 #include <Eigen/Core>
