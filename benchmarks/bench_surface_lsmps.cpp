@@ -1,6 +1,6 @@
-// Tanaka 2018 surface pieces for LSMPS scenes (surface/packing_ratio.hpp, normals.hpp, geometric.hpp): cost of
-// one evaluation per particle on jittered periodic lattices (±0.1 L), list built once outside the timed loop
-// with per_particle_radius{&L, 3.1}. Every particle is wanted; normals for geometric are computed once.
+// Tanaka 2018 surface pieces for LSMPS scenes (surface/packing_ratio.hpp, normals.hpp, geometric.hpp): cost
+// of one evaluation per particle on jittered periodic lattices (±0.1 L), list built once outside the timed
+// loop with per_particle_radius{&L, 3.1}. Every particle is wanted; normals for geometric are computed once.
 // Results with the flags used are recorded in docs/surface.md.
 #include <benchmark/benchmark.h>
 

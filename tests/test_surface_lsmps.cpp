@@ -198,7 +198,8 @@ double half_space_c(int A, double Re) {
 template <int D>
 Eigen::VectorXd packing(const scene<D>& s, const packing_ratio_params& p = {}) {
   Eigen::VectorXd c;
-  packing_ratio(exec::seq{}, s.x, s.L, s.nl, everyone, [&](index_t j) { return s.is_wall(j); }, p, c);
+  packing_ratio(
+      exec::seq{}, s.x, s.L, s.nl, everyone, [&](index_t j) { return s.is_wall(j); }, p, c);
   return c;
 }
 
@@ -207,8 +208,9 @@ constexpr double c_min = 0.95, c_max = 1.2;  // Tanaka 2018 parameter table
 }  // namespace
 
 TEST_SUITE("packing_ratio") {
-  TEST_CASE_TEMPLATE("surface: packing ratio of a lattice interior equals the lattice sum and lies in [c_min, c_max]",
-                     Dim, dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE(
+      "surface: packing ratio of a lattice interior equals the lattice sum and lies in [c_min, c_max]", Dim,
+      dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const int m = 10, ny = 10;
     const scene<D> s = slab<D>(m, ny, false);
@@ -229,8 +231,8 @@ TEST_SUITE("packing_ratio") {
     CHECK(bad == 0);
   }
 
-  TEST_CASE_TEMPLATE("surface: packing ratio at a flat free surface matches the half-space continuum", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("surface: packing ratio at a flat free surface matches the half-space continuum", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const int m = 10, ny = 10;
     const scene<D> s = slab<D>(m, ny, false);
@@ -252,16 +254,16 @@ TEST_SUITE("packing_ratio") {
     CHECK(cont < 0.7);
   }
 
-  TEST_CASE_TEMPLATE("surface: packing ratio next to a flat wall of copies stays in [c_min, c_max]", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("surface: packing ratio next to a flat wall of copies stays in [c_min, c_max]", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const int m = 10, ny = 10;
     const scene<D> s = slab<D>(m, ny, true);
     const Eigen::VectorXd c = packing(s);
     const scene<D> bare = slab<D>(m, ny, false);
     const Eigen::VectorXd c0 = packing(bare);
-    MESSAGE("D = " << D << ": first fluid layer c = " << c[0] << " (without the wall " << c0[0] << "), second "
-                   << c[m] << ", third " << c[2 * m] << ", copy " << c[s.nf]);
+    MESSAGE("D = " << D << ": first fluid layer c = " << c[0] << " (without the wall " << c0[0]
+                   << "), second " << c[m] << ", third " << c[2 * m] << ", copy " << c[s.nf]);
     // Measured while writing: layers 1–3 c = 1.0838, 1.1204, 1.0500 (2D); 1.0923, 1.1495, 1.0689 (3D) —
     // W* (eq. 36) has no cap, so each copy also counts the half-diameter above the wall that the first
     // fluid layer holds. Asserted: inside [c_min, c_max] for every layer not reached by the free surface,
@@ -279,8 +281,8 @@ TEST_SUITE("packing_ratio") {
     CHECK(c0[0] < 0.7);
   }
 
-  TEST_CASE_TEMPLATE("surface: packing ratio of a jittered lattice interior stays in [c_min, c_max]", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("surface: packing ratio of a jittered lattice interior stays in [c_min, c_max]", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const std::uint64_t seed = test_seed() + D;
     MESSAGE("seed = " << seed << " (MPSKIT_SEED), D = " << D);
@@ -302,8 +304,9 @@ TEST_SUITE("packing_ratio") {
     CHECK(hi < c_max);
   }
 
-  TEST_CASE_TEMPLATE("surface: packing ratio equals a brute-force sum of eqs. 35–36 for mixed sizes and wall copies",
-                     Dim, dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE(
+      "surface: packing ratio equals a brute-force sum of eqs. 35–36 for mixed sizes and wall copies", Dim,
+      dim<2>, dim<3>) {
     // Checks the O(1)-per-neighbour evaluation and the list coverage claim (the `max` read of a 3.1 L list
     // holds every contributing pair, r < (R_e − 1/2) L_i + L_j/2, for any mix of sizes): the oracle loops
     // over all pairs with volume_function, no list. Diameters L, 2L and L/2 at random, positions random in
@@ -358,7 +361,8 @@ TEST_SUITE("packing_ratio") {
     }
   }
 
-  TEST_CASE("surface: isolated flags from c < alpha_c; a lone particle is isolated, a lattice particle is not") {
+  TEST_CASE(
+      "surface: isolated flags from c < alpha_c; a lone particle is isolated, a lattice particle is not") {
     scene<2> s = slab<2>(10, 10, false);
     // Append a lone particle far from the slab (> 3.1 L from everyone).
     s.x.conservativeResize(2, s.nf + 1);
@@ -387,7 +391,8 @@ TEST_SUITE("packing_ratio") {
     CHECK(isolated_flags(c.head(s.nf - 1), p.alpha_c, f2) == 0);
     // A non-participating neighbourhood makes everyone isolated except through its own volume.
     Eigen::VectorXd c_alone;
-    packing_ratio(exec::seq{}, s.x, s.L, s.nl, nobody, [](index_t) { return false; }, p, c_alone);
+    packing_ratio(
+        exec::seq{}, s.x, s.L, s.nl, nobody, [](index_t) { return false; }, p, c_alone);
     CHECK(c_alone.maxCoeff() == doctest::Approx(num / den).epsilon(1e-12));
   }
 
@@ -414,14 +419,15 @@ TEST_SUITE("packing_ratio") {
     CHECK_THROWS_WITH_AS(run(p), doctest::Contains("alpha_c"), mpskit::error);
     Eigen::VectorXd Lbad = s.L;
     Lbad[7] = 0.0;
-    CHECK_THROWS_WITH_AS(packing_ratio(exec::seq{}, s.x, Lbad, s.nl, everyone, nobody, packing_ratio_params{}, c),
-                         doctest::Contains("particle 7"), mpskit::error);
+    CHECK_THROWS_WITH_AS(
+        packing_ratio(exec::seq{}, s.x, Lbad, s.nl, everyone, nobody, packing_ratio_params{}, c),
+        doctest::Contains("particle 7"), mpskit::error);
     CHECK_THROWS_WITH_AS(packing_ratio(exec::seq{}, s.x, Eigen::VectorXd(s.L.head(3)), s.nl, everyone, nobody,
                                        packing_ratio_params{}, c),
                          doctest::Contains("L has 3 entries"), mpskit::error);
     std::vector<flag::type> flags(3, 0);
-    CHECK_THROWS_WITH_AS(isolated_flags(Eigen::VectorXd::Ones(5), 0.3, flags), doctest::Contains("flags has 3"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(isolated_flags(Eigen::VectorXd::Ones(5), 0.3, flags),
+                         doctest::Contains("flags has 3"), mpskit::error);
     CHECK_THROWS_WITH_AS(isolated_flags(Eigen::VectorXd::Ones(3), 2.0, flags), doctest::Contains("alpha_c"),
                          mpskit::error);
     CHECK_THROWS_WITH_AS(isolated_flags(Eigen::VectorXd::Constant(3, std::nan("")), 0.3, flags),
@@ -445,7 +451,8 @@ normal_field<D> compute_normals(const scene<D>& s, const Participates& participa
 }
 
 template <int D, class Participates = decltype(everyone)>
-std::vector<std::uint8_t> detect(const scene<D>& s, const points<D>& n, const Participates& participates = everyone) {
+std::vector<std::uint8_t> detect(const scene<D>& s, const points<D>& n,
+                                 const Participates& participates = everyone) {
   std::vector<std::uint8_t> surface;
   geometric(exec::seq{}, s.x, s.L, s.nl, participates, n, geometric_params{}, surface,
             [&](index_t i) { return i < s.nf; });
@@ -466,8 +473,8 @@ bool on_block_boundary(index_t k, int n) {
 }  // namespace
 
 TEST_SUITE("geometric_surface") {
-  TEST_CASE_TEMPLATE("surface: normals of a flat free surface are ±e_y; a symmetric interior is degenerate", Dim,
-                     dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE("surface: normals of a flat free surface are ±e_y; a symmetric interior is degenerate",
+                     Dim, dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const int m = 8, ny = 10;
     const scene<D> s = slab<D>(m, ny, false);
@@ -479,13 +486,15 @@ TEST_SUITE("geometric_surface") {
     for (index_t k = 0; k < s.nf; ++k) {
       const int b = layer_of<D>(k, m, ny);
       const normal_result<D> r = normal_of<D>(s.x, s.L, s.nl, everyone, normals_params{}, k);
-      if (k < static_cast<index_t>(m) * ny && k % m == 0) MESSAGE("D = " << D << " layer " << b << ": |n*| = " << r.n_star.norm());
+      if (k < static_cast<index_t>(m) * ny && k % m == 0)
+        MESSAGE("D = " << D << " layer " << b << ": |n*| = " << r.n_star.norm());
       if (f.degenerate[static_cast<std::size_t>(k)] == degenerate_normal::none) {
         ++unit;
         // Exact mirror symmetry in x (and z) of a periodic lattice: the tangential part is rounding only.
         const vec<D> expect = b < ny / 2 ? vec<D>(-ey) : ey;
         const double err = (f.n.col(k) - expect).norm();
-        worst[static_cast<std::size_t>(std::min(b, ny - 1 - b))] = std::max(worst[static_cast<std::size_t>(std::min(b, ny - 1 - b))], err);
+        worst[static_cast<std::size_t>(std::min(b, ny - 1 - b))] =
+            std::max(worst[static_cast<std::size_t>(std::min(b, ny - 1 - b))], err);
         // Tangential rounding of n̂* (~1e-16) divided by |n̂*|: 1e-12 on the surface layer (|n̂*| ≈ 0.75),
         // 1e-10 on the third layer (|n̂*| ≈ 3e-4 and 7e-4).
         bad += !(err < (b == 0 || b == ny - 1 ? 1e-12 : 1e-10));
@@ -505,11 +514,13 @@ TEST_SUITE("geometric_surface") {
     CHECK(vanishing == static_cast<index_t>(ny - 6) * m * (D == 3 ? m : 1));
   }
 
-  TEST_CASE("surface: a particle without neighbours or with collinear neighbours has a singular (degenerate) normal") {
+  TEST_CASE(
+      "surface: a particle without neighbours or with collinear neighbours has a singular (degenerate) "
+      "normal") {
     scene<2> s;
     s.nf = 6;
     s.x.resize(2, 6);
-    s.x.col(0) = vec<2>(0.5, 0.5);  // lone
+    s.x.col(0) = vec<2>(0.5, 0.5);                                 // lone
     for (int q = 1; q < 6; ++q) s.x.col(q) = vec<2>(q * l0, 0.0);  // a line of five
     s.build();
     const normal_field<2> f = compute_normals(s);
@@ -518,10 +529,13 @@ TEST_SUITE("geometric_surface") {
       CHECK(f.degenerate[static_cast<std::size_t>(q)] == degenerate_normal::singular);
       CHECK(f.n.col(q).norm() == 0.0);
     }
-    // geometric: the lone particle is surface (no neighbour), the line is inside (zero normal with neighbours).
-    const geometric_result<2> lone = geometric_of<2>(s.x, s.L, s.nl, everyone, vec<2>::Zero(), geometric_params{}, 0);
+    // geometric: the lone particle is surface (no neighbour), the line is inside (zero normal with
+    // neighbours).
+    const geometric_result<2> lone =
+        geometric_of<2>(s.x, s.L, s.nl, everyone, vec<2>::Zero(), geometric_params{}, 0);
     CHECK(lone.step == geometric_step::no_neighbour);
-    const geometric_result<2> line = geometric_of<2>(s.x, s.L, s.nl, everyone, vec<2>::Zero(), geometric_params{}, 3);
+    const geometric_result<2> line =
+        geometric_of<2>(s.x, s.L, s.nl, everyone, vec<2>::Zero(), geometric_params{}, 3);
     CHECK(line.step == geometric_step::inside);
   }
 
@@ -543,13 +557,13 @@ TEST_SUITE("geometric_surface") {
     MESSAGE("D = " << D << ": " << outer << " outer particles, largest angle to the radial direction "
                    << worst * 180.0 / pi << " deg");
     CHECK(degenerate_outer == 0);
-    // Measured while writing: 2D 0.082° (8 rings, spacing L), 3D 1.06° (5 Fibonacci shells, quasi-uniform only);
-    // bounds 0.5° / 3°.
+    // Measured while writing: 2D 0.082° (8 rings, spacing L), 3D 1.06° (5 Fibonacci shells, quasi-uniform
+    // only); bounds 0.5° / 3°.
     CHECK(worst < (D == 2 ? 0.5 : 3.0) * pi / 180.0);
   }
 
-  TEST_CASE_TEMPLATE("surface: geometric detection flags exactly the boundary layer of a free block", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("surface: geometric detection flags exactly the boundary layer of a free block", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const int n = D == 2 ? 14 : 8;
     const scene<D> s = block<D>(n);
@@ -587,27 +601,29 @@ TEST_SUITE("geometric_surface") {
     CHECK(extra == 0);
   }
 
-  TEST_CASE_TEMPLATE("surface: a slab resting on a row of wall copies is flagged on its top row only", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("surface: a slab resting on a row of wall copies is flagged on its top row only", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     const int m = 8, ny = 8;
     const scene<D> s = slab<D>(m, ny, true);
     const normal_field<D> f = compute_normals(s);
     const std::vector<std::uint8_t> surf = detect(s, f.n);
     index_t wrong = 0;
-    for (index_t k = 0; k < s.nf; ++k) wrong += (surf[static_cast<std::size_t>(k)] != 0) != (layer_of<D>(k, m, ny) == ny - 1);
+    for (index_t k = 0; k < s.nf; ++k)
+      wrong += (surf[static_cast<std::size_t>(k)] != 0) != (layer_of<D>(k, m, ny) == ny - 1);
     CHECK(wrong == 0);
     // The copies are what blocks the bottom cone: when they do not participate the bottom layer is a surface.
     const auto fluid_only = [&](index_t j) { return j < s.nf; };
     const normal_field<D> f0 = compute_normals(s, fluid_only);
     const std::vector<std::uint8_t> surf0 = detect(s, f0.n, fluid_only);
     index_t bottom = 0;
-    for (index_t k = 0; k < s.nf; ++k) bottom += layer_of<D>(k, m, ny) == 0 && surf0[static_cast<std::size_t>(k)] != 0;
+    for (index_t k = 0; k < s.nf; ++k)
+      bottom += layer_of<D>(k, m, ny) == 0 && surf0[static_cast<std::size_t>(k)] != 0;
     CHECK(bottom == static_cast<index_t>(m) * (D == 3 ? m : 1));
   }
 
-  TEST_CASE_TEMPLATE("surface: geometric detection on a disc / ball flags the outer layer and nothing inside", Dim,
-                     dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE("surface: geometric detection on a disc / ball flags the outer layer and nothing inside",
+                     Dim, dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     std::vector<int> ring;
     const int rings = D == 2 ? 8 : 5;
@@ -635,27 +651,31 @@ TEST_SUITE("geometric_surface") {
     const double t = 40.0 * pi / 180.0;
     const vec<2> tilted(std::cos(t), std::sin(t));
     const geometric_result<2> r = geometric_of<2>(s.x, s.L, s.nl, everyone, tilted, geometric_params{}, i);
-    MESSAGE("N_theta = " << r.n_theta << ", N'_theta = " << r.n_theta_prime << ", n' = (" << r.n_prime[0] << ", "
-                         << r.n_prime[1] << ")");
+    MESSAGE("N_theta = " << r.n_theta << ", N'_theta = " << r.n_theta_prime << ", n' = (" << r.n_prime[0]
+                         << ", " << r.n_prime[1] << ")");
     CHECK(r.n_theta > 0);         // eq. 88 alone would call it inside
     CHECK(r.n_theta_prime == 0);  // eq. 89 catches it
     CHECK(r.step == geometric_step::reflected_cone);
     CHECK(r.n_prime.norm() == doctest::Approx(1.0).epsilon(1e-12));  // a reflection keeps unit length
-    CHECK(r.n_prime[1] > std::cos(pi / 4));                         // n′ points up (within 45° of +e_y)
-    // With the computed normal (+e_y) the first cone decides; an interior particle stays inside with the tilt.
+    CHECK(r.n_prime[1] > std::cos(pi / 4));                          // n′ points up (within 45° of +e_y)
+    // With the computed normal (+e_y) the first cone decides; an interior particle stays inside with the
+    // tilt.
     CHECK(geometric_of<2>(s.x, s.L, s.nl, everyone, vec<2>(0.0, 1.0), geometric_params{}, i).step ==
           geometric_step::cone);
     const index_t deep = static_cast<index_t>(ny / 2) * m + 5;
-    CHECK(geometric_of<2>(s.x, s.L, s.nl, everyone, tilted, geometric_params{}, deep).step == geometric_step::inside);
+    CHECK(geometric_of<2>(s.x, s.L, s.nl, everyone, tilted, geometric_params{}, deep).step ==
+          geometric_step::inside);
   }
 
-  TEST_CASE("surface: counts of a particle with more than 128 neighbours inside alpha_theta L equal brute force") {
+  TEST_CASE(
+      "surface: counts of a particle with more than 128 neighbours inside alpha_theta L equal brute force") {
     // geometric_of keeps up to 128 neighbours for the third step and walks the list again beyond that; a
     // particle of diameter 5 L among L particles has ≈ π (10.5)² ≈ 350 of them (2.1 · 5 L radius).
     scene<2> s = slab<2>(40, 30, false);
     const index_t big = 15 * 40 + 20;  // layer 15, column 20
     s.L[big] = 5.0 * l0;
-    s.nl.build(exec::seq{}, s.x, search::per_particle_radius{&s.L, 3.1}, search::build_options<2>{0.0, s.dom});
+    s.nl.build(exec::seq{}, s.x, search::per_particle_radius{&s.L, 3.1},
+               search::build_options<2>{0.0, s.dom});
     const double t = 60.0 * pi / 180.0;
     const vec<2> ni(std::cos(t), std::sin(t));
     const geometric_result<2> r = geometric_of<2>(s.x, s.L, s.nl, everyone, ni, geometric_params{}, big);
@@ -670,7 +690,8 @@ TEST_SUITE("geometric_surface") {
       cone += ni.dot(d) > rr * std::cos(pi / 4);
       cone_prime += r.n_prime.dot(d) > rr * std::cos(pi / 4);
     }
-    MESSAGE(inside << " neighbours inside 2.1 L_i; N_theta = " << r.n_theta << ", N'_theta = " << r.n_theta_prime);
+    MESSAGE(inside << " neighbours inside 2.1 L_i; N_theta = " << r.n_theta
+                   << ", N'_theta = " << r.n_theta_prime);
     CHECK(inside > 128);
     CHECK(r.n_theta == cone);
     CHECK(r.n_theta_prime == cone_prime);
@@ -678,10 +699,11 @@ TEST_SUITE("geometric_surface") {
   }
 
   TEST_CASE("surface: at a 2:1 resolution interface the pair-mean radius removes interior surface flags") {
-    // Fine lattice (L) on [0, 10 L] × [0, 12 L] beside a coarse one (2 L) on [10 L, 20 L] × [0, 12 L], all free.
-    // Eq. 88 as printed (radius α_θ L_i = 2.1 L for a fine particle) sees the coarse column 1.5 L away only
-    // through its particles' gaps: fine particles at the interface are flagged although they are interior.
-    // With α_θ L_ij the coarse neighbours are inside the radius and only the outer layer is flagged.
+    // Fine lattice (L) on [0, 10 L] × [0, 12 L] beside a coarse one (2 L) on [10 L, 20 L] × [0, 12 L], all
+    // free. Eq. 88 as printed (radius α_θ L_i = 2.1 L for a fine particle) sees the coarse column 1.5 L away
+    // only through its particles' gaps: fine particles at the interface are flagged although they are
+    // interior. With α_θ L_ij the coarse neighbours are inside the radius and only the outer layer is
+    // flagged.
     scene<2> s;
     std::vector<vec<2>> pts;
     std::vector<double> Ls;
@@ -778,28 +800,28 @@ TEST_SUITE("geometric_surface") {
                          doctest::Contains("singular_tol"), mpskit::error);
     Eigen::VectorXd Lbad = s.L;
     Lbad[4] = -l0;
-    CHECK_THROWS_WITH_AS(normals(exec::seq{}, s.x, Lbad, s.nl, everyone, n, deg), doctest::Contains("particle 4"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(normals(exec::seq{}, s.x, Lbad, s.nl, everyone, n, deg),
+                         doctest::Contains("particle 4"), mpskit::error);
     normals(exec::seq{}, s.x, s.L, s.nl, everyone, n, deg);
     geometric_params gp;
     gp.alpha_theta = 0.0;
-    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf), doctest::Contains("alpha_theta"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf),
+                         doctest::Contains("alpha_theta"), mpskit::error);
     gp = {};
     gp.theta1 = 0.0;
-    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf), doctest::Contains("theta1"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf),
+                         doctest::Contains("theta1"), mpskit::error);
     gp.theta1 = pi;
-    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf), doctest::Contains("theta1"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf),
+                         doctest::Contains("theta1"), mpskit::error);
     gp = {};
     gp.radius = search::radius_rule::max;
-    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf), doctest::Contains("radius"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf),
+                         doctest::Contains("radius"), mpskit::error);
     gp = {};
     gp.theta2 = 4.0;
-    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf), doctest::Contains("theta2"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, n, gp, surf),
+                         doctest::Contains("theta2"), mpskit::error);
     const points<2> short_n = n.leftCols(3);
     CHECK_THROWS_WITH_AS(geometric(exec::seq{}, s.x, s.L, s.nl, everyone, short_n, geometric_params{}, surf),
                          doctest::Contains("n has 3 columns"), mpskit::error);

@@ -40,7 +40,7 @@ struct geometric_params {
   double theta1 = std::numbers::pi / 4;   ///< θ1: half-angle of the cones (eqs. 88–89); in (0, π)
   double theta2 = std::numbers::pi / 2;   ///< θ2: half-angle of the half-space of m_i (third step); in (0, π]
   /// Radius of eqs. 88–89: `own` = α_θ L_i as printed (default); `pair_mean` = α_θ (L_i + L_j)/2, an mpskit
-  /// option for multi-resolution (docs/surface.md: fewer false surface flags at 2:1 interfaces); `max` refused.
+  /// option for multi-resolution (docs/surface.md: no false surface flags at 2:1 interfaces); `max` refused.
   search::radius_rule radius = search::radius_rule::own;
   /// Throws mpskit::error listing every bad value with its accepted range.
   void validate() const {
@@ -76,15 +76,16 @@ struct geometric_result {
 /// §4.6 steps two and three for particle i with outward unit normal ni (zero when degenerate).
 template <int D, class Participates>
   requires Dimension<D>
-geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L, const search::neighbour_list<D>& nl,
-                                 const Participates& participates, const vec<D>& ni, const geometric_params& p,
-                                 index_t i) {
+geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L,
+                                 const search::neighbour_list<D>& nl, const Participates& participates,
+                                 const vec<D>& ni, const geometric_params& p, index_t i) {
   const search::support<search::per_particle_radius> s{{&L, p.alpha_theta}, p.radius};
   const double cos1 = std::cos(p.theta1), cos2 = std::cos(p.theta2);
   geometric_result<D> out;
   if (ni.squaredNorm() == 0.0) {  // zero normal: inside unless alone (reading in the file comment)
     index_t count = 0;
-    nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>&, double) { count += participates(j) ? 1 : 0; });
+    nl.for_each_neighbour(x, i, s,
+                          [&](index_t j, const vec<D>&, double) { count += participates(j) ? 1 : 0; });
     out.step = count > 0 ? geometric_step::inside : geometric_step::no_neighbour;
     return out;
   }
@@ -151,7 +152,8 @@ void geometric(E e, const points<D>& x, const Eigen::VectorXd& L, const search::
   const index_t np = x.cols();
   if (L.size() != np) fail("geometric: L has ", L.size(), " entries for ", np, " particles");
   if (n.cols() != np) fail("geometric: n has ", n.cols(), " columns for ", np, " particles");
-  if (nl.rows() != np) fail("geometric: the neighbour list has ", nl.rows(), " rows for ", np, " particles (rebuild it)");
+  if (nl.rows() != np)
+    fail("geometric: the neighbour list has ", nl.rows(), " rows for ", np, " particles (rebuild it)");
   for (index_t i = 0; i < np; ++i)  // checked before the loop: nothing may throw inside a parallel region
     if (!(std::isfinite(L[i]) && L[i] > 0.0))
       fail("geometric: diameter L of particle ", i, " is ", L[i], "; must be a finite number > 0");
@@ -159,7 +161,8 @@ void geometric(E e, const points<D>& x, const Eigen::VectorXd& L, const search::
   for_each_particle(e, np, [&](index_t i) {
     if (!wanted(i)) return;
     const vec<D> ni = n.col(i);
-    surface[static_cast<std::size_t>(i)] = geometric_of<D>(x, L, nl, participates, ni, p, i).surface() ? 1 : 0;
+    const bool on_surface = geometric_of<D>(x, L, nl, participates, ni, p, i).surface();
+    surface[static_cast<std::size_t>(i)] = on_surface ? 1 : 0;
   });
 }
 

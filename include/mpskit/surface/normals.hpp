@@ -35,9 +35,9 @@ struct all_particles {
 
 /// Why a normal is degenerate (values of the `degenerate` array of normals()).
 namespace degenerate_normal {
-inline constexpr std::uint8_t none = 0;      ///< a unit normal was computed
-inline constexpr std::uint8_t vanishing = 1; ///< |n̂*| < zero_tol: symmetric neighbourhood (an interior particle)
-inline constexpr std::uint8_t singular = 2;  ///< moment matrix singular: no neighbour, or all on a line/plane
+inline constexpr std::uint8_t none = 0;       ///< a unit normal was computed
+inline constexpr std::uint8_t vanishing = 1;  ///< |n̂*| < zero_tol: symmetric neighbourhood (interior)
+inline constexpr std::uint8_t singular = 2;   ///< singular moment matrix: no neighbour or all on a line/plane
 }  // namespace degenerate_normal
 
 /// Numbers of the normal computation.
@@ -58,8 +58,8 @@ struct normals_params {
 /// Result of one particle: the outward unit normal (0 when degenerate), the reason, and n̂*.
 template <int D>
 struct normal_result {
-  vec<D> n = vec<D>::Zero();      ///< outward unit normal −n̂*/|n̂*| (zero when degenerate)
-  vec<D> n_star = vec<D>::Zero(); ///< n̂* of eq. 31 with x̂ = x_ij/L_i (inward, dimensionless; 0 when singular)
+  vec<D> n = vec<D>::Zero();       ///< outward unit normal −n̂*/|n̂*| (zero when degenerate)
+  vec<D> n_star = vec<D>::Zero();  ///< n̂* of eq. 31, x̂ = x_ij/L_i (inward, dimensionless; 0 if singular)
   std::uint8_t degenerate = degenerate_normal::none;  ///< a degenerate_normal value
 };
 
@@ -73,15 +73,15 @@ normal_result<D> normal_of(const points<D>& x, const Eigen::VectorXd& L, const s
   vec<D> b = vec<D>::Zero();
   const double inv_Li = 1.0 / L[i];
   const double Ri = p.re_ratio * L[i];
-  nl.for_each_neighbour(x, i, search::support<search::per_particle_radius>{{&L, p.re_ratio}, search::radius_rule::pair_mean},
-                        [&](index_t j, const vec<D>& d, double r2) {
-                          if (!participates(j)) return;
-                          const double Rij = 0.5 * (Ri + p.re_ratio * L[j]);      // eq. 28
-                          const double w = kernel::quadratic::w(std::sqrt(r2), Rij);  // eq. 29
-                          const vec<D> xh = d * inv_Li;
-                          m.noalias() += w * xh * xh.transpose();  // eq. 31, moment matrix
-                          b.noalias() += w * xh;                   // eq. 31, moment vector
-                        });
+  const search::support<search::per_particle_radius> s{{&L, p.re_ratio}, search::radius_rule::pair_mean};
+  nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>& d, double r2) {
+    if (!participates(j)) return;
+    const double Rij = 0.5 * (Ri + p.re_ratio * L[j]);          // eq. 28
+    const double w = kernel::quadratic::w(std::sqrt(r2), Rij);  // eq. 29
+    const vec<D> xh = d * inv_Li;
+    m.noalias() += w * xh * xh.transpose();  // eq. 31, moment matrix
+    b.noalias() += w * xh;                   // eq. 31, moment vector
+  });
   normal_result<D> out;
   const double tr = m.trace();
   if (!(tr > 0.0)) {
@@ -118,7 +118,8 @@ void normals(E e, const points<D>& x, const Eigen::VectorXd& L, const search::ne
   p.validate();
   const index_t np = x.cols();
   if (L.size() != np) fail("normals: L has ", L.size(), " entries for ", np, " particles");
-  if (nl.rows() != np) fail("normals: the neighbour list has ", nl.rows(), " rows for ", np, " particles (rebuild it)");
+  if (nl.rows() != np)
+    fail("normals: the neighbour list has ", nl.rows(), " rows for ", np, " particles (rebuild it)");
   if (n.cols() != np) n.setZero(D, np);
   for (index_t i = 0; i < np; ++i)  // checked before the loop: nothing may throw inside a parallel region
     if (!(std::isfinite(L[i]) && L[i] > 0.0))

@@ -50,7 +50,8 @@ struct packing_ratio_params {
               mpskit::detail::concat("is ", radii, "; must be an integer in [2, ", packing_ratio_max_radii,
                                      "] (eq. 39 divides by A − 1)"));
     v.require(std::isfinite(re_ratio) && re_ratio > 1.0, "re_ratio",
-              mpskit::detail::concat("is ", re_ratio, "; must be a finite number > 1 (eq. 39 needs R_i > L_i)"));
+              mpskit::detail::concat("is ", re_ratio,
+                                     "; must be a finite number > 1 (eq. 39 needs R_i > L_i)"));
     v.in_range("alpha_c", alpha_c, 0.0, 1.0);
     v.throw_if_any();
   }
@@ -81,8 +82,8 @@ inline double volume_function(double R, double r, double Lj, double Vj, bool wal
 template <int D, class Participates, class IsWall>
   requires Dimension<D>
 double packing_ratio_of(const points<D>& x, const Eigen::VectorXd& L, const search::neighbour_list<D>& nl,
-                        const Participates& participates, const IsWall& is_wall, const packing_ratio_params& p,
-                        index_t i) {
+                        const Participates& participates, const IsWall& is_wall,
+                        const packing_ratio_params& p, index_t i) {
   const int A = p.radii;
   const double Li = L[i];
   const double Ri = p.re_ratio * Li;  // eq. 27
@@ -116,11 +117,12 @@ double packing_ratio_of(const points<D>& x, const Eigen::VectorXd& L, const sear
     if (!wall) dC[static_cast<std::size_t>(a1)] += Vj;  // the cap V_j of eq. 35 beyond r + L_j/2
   };
   add(0.0, Li, static_cast<bool>(is_wall(i)));  // particle i itself (eq. 34 sums over j ∈ F ∪ W, i included)
-  nl.for_each_neighbour(x, i, search::support<search::per_particle_radius>{{&L, p.re_ratio}, search::radius_rule::max},
-                        [&](index_t j, const vec<D>&, double r2) {
-                          if (!participates(j)) return;
-                          add(std::sqrt(r2), L[j], static_cast<bool>(is_wall(j)));
-                        });
+  // The `max` read: a superset of every contributing pair (file comment).
+  const search::support<search::per_particle_radius> s{{&L, p.re_ratio}, search::radius_rule::max};
+  nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>&, double r2) {
+    if (!participates(j)) return;
+    add(std::sqrt(r2), L[j], static_cast<bool>(is_wall(j)));
+  });
   std::array<double, packing_ratio_max_radii> Ra{}, Na{};
   double slope = 0.0, constant = 0.0;
   for (int a = 0; a < A; ++a) {
@@ -152,19 +154,22 @@ void packing_ratio(E e, const points<D>& x, const Eigen::VectorXd& L, const sear
   p.validate();
   const index_t n = x.cols();
   if (L.size() != n) fail("packing_ratio: L has ", L.size(), " entries for ", n, " particles");
-  if (nl.rows() != n) fail("packing_ratio: the neighbour list has ", nl.rows(), " rows for ", n, " particles (rebuild it)");
+  if (nl.rows() != n)
+    fail("packing_ratio: the neighbour list has ", nl.rows(), " rows for ", n, " particles (rebuild it)");
   for (index_t i = 0; i < n; ++i)
     if (!(std::isfinite(L[i]) && L[i] > 0.0))
       fail("packing_ratio: diameter L of particle ", i, " is ", L[i], "; must be a finite number > 0");
   c.resize(n);
-  for_each_particle(e, n, [&](index_t i) { c[i] = packing_ratio_of<D>(x, L, nl, participates, is_wall, p, i); });
+  for_each_particle(e, n,
+                    [&](index_t i) { c[i] = packing_ratio_of<D>(x, L, nl, participates, is_wall, p, i); });
 }
 
 /// Tanaka 2018 §4.6, first step: sets flag::isolated on entry i where c_i < alpha_c and clears it where
 /// c_i ≥ alpha_c (so a particle rejoins when its c recovers), for i < c.size(); other bits and entries
 /// beyond c.size() are untouched (pass c.head(n_real) to flag real particles only). Returns the number
 /// flagged. Throws mpskit::error when alpha_c is outside [0, 1], flags is shorter than c, or a c_i is NaN.
-inline index_t isolated_flags(Eigen::Ref<const Eigen::VectorXd> c, double alpha_c, std::vector<flag::type>& flags) {
+inline index_t isolated_flags(Eigen::Ref<const Eigen::VectorXd> c, double alpha_c,
+                              std::vector<flag::type>& flags) {
   if (!(alpha_c >= 0.0 && alpha_c <= 1.0)) fail("isolated_flags: alpha_c = ", alpha_c, ": must be in [0, 1]");
   if (static_cast<index_t>(flags.size()) < c.size())
     fail("isolated_flags: flags has ", flags.size(), " entries for ", c.size(), " packing ratios");
