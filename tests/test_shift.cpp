@@ -3,16 +3,22 @@
 // Random inputs use a seed printed with each case; set MPSKIT_SEED to reproduce or vary it.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "cases/polygon_tank.hpp"
+#include "cases/tanaka_dam_break.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/search/neighbour_list.hpp"
+#include "mpskit/wall/imaginary.hpp"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -85,8 +91,9 @@ struct shift_case {
   }
   void build() { nl = build_list<D>(x, L, dom); }
   template <class E = exec::seq, class P = all_participate>
-  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {}) {
-    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx);
+  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {},
+                                      const points<D>* n_wall = nullptr) {
+    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx, n_wall);
   }
 };
 
@@ -264,6 +271,49 @@ TEST_SUITE("tanaka_shift") {
     CHECK(moved_top > 0);        // jittered: the tangential part is not zero
   }
 
+  TEST_CASE_TEMPLATE("regularize: tanaka shift with a second (wall) normal removes both normal components", Dim,
+                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    constexpr int D = Dim::value;
+    const std::uint64_t seed = test_seed() + 6;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    const int m = D == 2 ? 12 : 7;
+    shift_case<D> c(lattice<D>(m, m, 0.2, rng));
+    std::normal_distribution<double> N(0.0, 1.0);
+    points<D> nw(D, c.x.cols());
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      vec<D> a, b;
+      for (int k = 0; k < D; ++k) {
+        a[k] = N(rng);
+        b[k] = N(rng);
+      }
+      c.n.col(i) = a.normalized();
+      nw.col(i) = b.normalized();  // random: not orthogonal to n (the Gram–Schmidt step matters)
+      c.tangential[static_cast<std::size_t>(i)] = 1;
+      c.grad_c.col(i) = 30.0 * vec<D>(b - a);
+    }
+    c.build();
+    regularize::tanaka_shift_params p;
+    p.alpha_S = 1e6;  // the unlimited vectors are larger: a stronger test of the projection
+    const regularize::tanaka_shift_report r = c.run(p, exec::seq{}, all_participate{}, &nw);
+    CHECK(r.projected == c.x.cols());
+    double along_n = 0.0, along_w = 0.0, size = 0.0;
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      along_n = std::max(along_n, std::abs(c.dx.col(i).dot(c.n.col(i))));
+      along_w = std::max(along_w, std::abs(c.dx.col(i).dot(nw.col(i))));
+      size = std::max(size, c.dx.col(i).norm());
+    }
+    MESSAGE("max |dx.n| / L = " << along_n / L0 << ", max |dx.n_wall| / L = " << along_w / L0
+                                << ", max |dx| / L = " << size / L0);
+    // Two projections of vectors ≤ 0.3 L: rounding ~1e-16 L; in 2D two independent normals leave nothing.
+    CHECK(along_n <= 1e-14 * L0);
+    CHECK(along_w <= 1e-14 * L0);
+    if (D == 2) CHECK(size <= 1e-14 * L0);
+    if (D == 3) CHECK(size > 1e-3 * L0);  // the component along n × n_wall survives
+    points<D> bad(D, 3);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &bad), doctest::Contains("n_wall"), mpskit::error);
+  }
+
   TEST_CASE("regularize: tanaka shift matches eqs. 93-100 written literally (random diameters, masks)") {
     const std::uint64_t seed = test_seed() + 1;
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
@@ -294,6 +344,52 @@ TEST_SUITE("tanaka_shift") {
       CHECK(r.moved > 0);
       if (alpha_S < 1.0) CHECK(r.limited > 0);
     }
+  }
+
+  TEST_CASE("regularize: iterated tanaka shift regularises a jittered periodic lattice and then stops") {
+    const std::uint64_t seed = test_seed() + 5;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    const int m = 20;
+    shift_case<2> c(lattice<2>(m, m, 0.3, rng), periodic_box<2>(m, m, {true, true}));
+    // Nearest-neighbour distance statistics (min and standard deviation, in L).
+    const auto stats = [&](double& dmin, double& sd) {
+      double s = 0.0, s2 = 0.0;
+      dmin = 1e300;
+      const search::support<search::uniform_radius> near{{1.5 * L0}, search::radius_rule::own};
+      for (index_t i = 0; i < c.x.cols(); ++i) {
+        double nn = 1e300;
+        c.nl.for_each_neighbour(c.x, i, near, [&](index_t, const vec<2>&, double r2) { nn = std::min(nn, std::sqrt(r2)); });
+        dmin = std::min(dmin, nn);
+        s += nn;
+        s2 += nn * nn;
+      }
+      const double mean = s / static_cast<double>(c.x.cols());
+      sd = std::sqrt(std::max(0.0, s2 / static_cast<double>(c.x.cols()) - mean * mean));
+      dmin /= L0;
+      sd /= L0;
+    };
+    c.build();
+    double dmin0, sd0;
+    stats(dmin0, sd0);
+    // δx* only (∇c = 0): x ← x + δx, list rebuilt, until eq. 93's threshold leaves every particle
+    // still (measured: 0.43–0.46 L → 0.889–0.900 L and sd 0.14 → 0.025 L, still after ≤ 150 passes for
+    // five seeds).
+    int passes = 0;
+    for (; passes < 300; ++passes) {
+      const regularize::tanaka_shift_report r = c.run();
+      if (r.moved == 0) break;
+      c.x += c.dx;
+      for (index_t i = 0; i < c.x.cols(); ++i) c.x.col(i) = c.dom.wrap(c.x.col(i));
+      c.build();
+    }
+    double dmin1, sd1;
+    stats(dmin1, sd1);
+    MESSAGE("min nearest distance " << dmin0 << " L -> " << dmin1 << " L, sd " << sd0 << " L -> " << sd1
+                                    << " L, still after " << passes << " passes");
+    CHECK(passes < 300);
+    CHECK(dmin1 >= 0.85);
+    CHECK(sd1 <= 0.25 * sd0);
   }
 
   TEST_CASE("regularize: apply_tanaka_shift reproduces a linear velocity field (eq. 91)") {
@@ -390,5 +486,242 @@ TEST_SUITE("shift_threads") {
 #else
     MESSAGE("built without OpenMP: nothing to compare");
 #endif
+  }
+}
+
+// ---- LSMPS wall cases of issue #7 -------------------------------------------------------------------
+namespace {
+
+/// Smallest signed distance of the particles to the walls.
+template <int D>
+double min_signed_distance(const geometry::polygon_set<D>& walls, const points<D>& x) {
+  double s = std::numeric_limits<double>::infinity();
+  for (index_t i = 0; i < x.cols(); ++i) s = std::min(s, walls.signed_distance(vec<D>(x.col(i))));
+  return s;
+}
+
+/// Centroid of element e.
+template <int D>
+vec<D> centroid(const geometry::polygon_set<D>& walls, index_t e) {
+  const mat<D> v = walls.element(e);
+  return v.rowwise().mean();
+}
+
+template <int D>
+void check_polygon_tank(const cases::polygon_tank_config& cfg) {
+  const cases::polygon_tank<D> t = cases::make_polygon_tank<D>(cfg);
+  const double L = cfg.L;
+  CAPTURE(D);
+  CAPTURE(cfg.lid);
+  CAPTURE(cfg.angle_deg);
+  REQUIRE(t.size() > 0);
+  REQUIRE(static_cast<index_t>(t.faces.size()) == t.walls.size());
+  CHECK(t.walls.quality().flipped == 0);  // the hand-wound elements were already consistent
+  CHECK(t.walls.quality().inconsistent.empty());
+  CHECK(t.walls.quality().degenerate.empty());
+  if constexpr (D == 3) CHECK(t.walls.quality().closed() == cfg.lid);  // closed mesh iff lid
+  // Every particle at signed distance ≥ L/2 (the fill's rule, 1e-12 m for rounding) and inside the
+  // analytic tank below the fill depth.
+  const double smin = min_signed_distance<D>(t.walls, t.x);
+  MESSAGE("D = " << D << ": " << t.size() << " particles, min signed distance / L = " << smin / L
+                 << ", surface height z_s = " << t.surface_height << " (H = " << t.H << ")");
+  CHECK(smin >= 0.5 * L - 1e-12);
+  bool all_inside = true;
+  for (index_t i = 0; i < t.size(); ++i)
+    all_inside = all_inside && t.inside(t.x.col(i)) && t.x(D - 1, i) < t.H;
+  CHECK(all_inside);
+  // Volume: the floor, right wall, end walls and surface are lattice-aligned (W, H, B multiples of L)
+  // and matched exactly; only the incline's band of cells with 0 < s < L/2 is dropped (about half a
+  // layer) and cells crossing it are kept. Bound: one layer, |N L^D − V(H)| ≤ L × wetted incline.
+  const double V = t.volume(t.H), NV = static_cast<double>(t.size()) * std::pow(L, D);
+  const double bound = L * t.incline_wetted(t.H);
+  MESSAGE("N L^D = " << NV << ", V(H) = " << V << ", |diff| / (L x wetted incline) = " << std::abs(NV - V) / bound);
+  CHECK(std::abs(NV - V) <= bound);
+  // z_s solves V(z_s) = N L^D; so it is below H by at most one layer normal to the incline.
+  CHECK(t.volume(t.surface_height) == doctest::Approx(NV).epsilon(1e-12));
+  CHECK(t.surface_height <= t.H + 1e-12);
+  CHECK(t.surface_height >= t.H - L);
+  CHECK(t.hydrostatic_pressure(t.corner(), 1000.0, 9.81) == doctest::Approx(1000.0 * 9.81 * t.surface_height));
+  // Normals point into the fluid: a point just off each element's centroid along its normal is inside
+  // the analytic tank, and just behind it is outside.
+  bool into = true;
+  for (index_t e = 0; e < t.walls.size(); ++e) {
+    const vec<D> c = centroid<D>(t.walls, e), n = t.walls.element_normal(e);
+    into = into && t.inside(vec<D>(c + 1e-3 * L * n)) && !t.inside(vec<D>(c - 1e-3 * L * n));
+  }
+  CHECK(into);
+  // Concave corner: each face's neighbour leaves the corner on the fluid side of the face (the normals
+  // converge), n_incline · (floor point − corner) > 0 and n_floor · (incline point − corner) > 0; the
+  // interior angle is 180° − θ.
+  index_t e_inc = npos, e_floor = npos;
+  for (index_t e = 0; e < t.walls.size(); ++e) {
+    if (t.faces[static_cast<std::size_t>(e)] == cases::tank_face::incline && e_inc == npos) e_inc = e;
+    if (t.faces[static_cast<std::size_t>(e)] == cases::tank_face::floor && e_floor == npos) e_floor = e;
+  }
+  REQUIRE(e_inc != npos);
+  REQUIRE(e_floor != npos);
+  const vec<D> n_inc = t.walls.element_normal(e_inc), n_floor = t.walls.element_normal(e_floor);
+  const vec<D> corner = t.corner();
+  vec<D> floor_pt = corner, incline_pt = corner;
+  floor_pt[0] += 0.5 * cfg.W;
+  incline_pt[0] -= 0.5 * cfg.tank_height * t.cot();
+  incline_pt[D - 1] += 0.5 * cfg.tank_height;
+  CHECK(n_inc.dot(floor_pt - corner) > 0.0);
+  CHECK(n_floor.dot(incline_pt - corner) > 0.0);
+  const double theta = cfg.angle_deg * std::numbers::pi / 180.0;
+  CHECK(std::acos(std::clamp(n_inc.dot(n_floor), -1.0, 1.0)) == doctest::Approx(theta).epsilon(1e-12));
+  // The closest point of a particle near the corner is on one of the two faces (no spurious wall).
+  CHECK(t.walls.signed_distance(vec<D>(corner + 0.5 * L * (n_inc + n_floor).normalized())) > 0.0);
+}
+
+}  // namespace
+
+TEST_SUITE("cases_lsmps") {
+  TEST_CASE("cases: polygon tank (2D and 3D, lid and open top, 45 and 60 degrees)") {
+    for (const bool lid : {true, false})
+      for (const double angle : {60.0, 45.0}) {
+        cases::polygon_tank_config cfg;
+        cfg.lid = lid;
+        cfg.angle_deg = angle;
+        check_polygon_tank<2>(cfg);
+        check_polygon_tank<3>(cfg);
+      }
+    cases::polygon_tank_config fine;
+    fine.L = 0.004;  // W, H, B multiples of L; 50 × 50 rows in 2D
+    check_polygon_tank<2>(fine);
+  }
+
+  TEST_CASE_TEMPLATE("cases: tanaka shift with imaginary copies keeps polygon-tank particles >= L/2 from the walls",
+                     Dim, std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    constexpr int D = Dim::value;
+    const cases::polygon_tank<D> t = cases::make_polygon_tank<D>({});
+    const index_t nr = t.size();
+    const double L = t.L;
+    const int passes = D == 2 ? 100 : 10;
+    points<D> x = t.x;
+    double smin = 1e300;
+    index_t moved = 0;
+    for (int it = 0; it < passes; ++it) {
+      // Step-start layout of the LSMPS solver: real fluid, then its imaginary copies (wall/imaginary.hpp).
+      Eigen::VectorXd Lall = Eigen::VectorXd::Constant(nr, L);
+      points<D> xa = x;
+      std::vector<wall::imaginary_copy<D>> copies;
+      wall::make_imaginary<D>(xa, Lall, nr, [](index_t) { return true; }, t.walls, wall::imaginary_params{}, copies);
+      wall::write_ghosts<D>(copies, nr, xa, Lall);
+      search::neighbour_list<D> nl;
+      nl.build(exec::seq{}, xa, search::per_particle_radius{&Lall, 3.1}, search::build_options<D>{});
+      // tangential_only: particles with a copy (near a wall: n = the first copy's wall normal, n_wall =
+      // a second copy's, at the concave corner) and the top row (n = +z; the wall normal moves to n_wall).
+      points<D> gc = points<D>::Zero(D, nr), n = points<D>::Zero(D, nr), nw = points<D>::Zero(D, nr), dx;
+      std::vector<std::uint8_t> tang(static_cast<std::size_t>(nr), 0), act(static_cast<std::size_t>(nr), 1);
+      for (const wall::imaginary_copy<D>& cp : copies) {
+        if (n.col(cp.parent).squaredNorm() == 0.0)
+          n.col(cp.parent) = cp.normal;
+        else
+          nw.col(cp.parent) = cp.normal;
+        tang[static_cast<std::size_t>(cp.parent)] = 1;
+      }
+      for (index_t i = 0; i < nr; ++i)
+        if (x(D - 1, i) > t.H - L) {
+          if (n.col(i).squaredNorm() > 0.0) nw.col(i) = n.col(i);
+          n.col(i) = vec<D>::Unit(D - 1);
+          tang[static_cast<std::size_t>(i)] = 1;
+        }
+      const regularize::tanaka_shift_report r = regularize::tanaka_shift_displacement<D>(
+          exec::seq{}, xa, Lall, nl, [](index_t) { return true; }, gc, n, tang, act, regularize::tanaka_shift_params{},
+          dx, &nw);
+      moved = std::max(moved, r.moved);
+      x += dx;
+      smin = std::min(smin, min_signed_distance<D>(t.walls, x));
+    }
+    double drift = 0.0;
+    for (index_t i = 0; i < nr; ++i) drift = std::max(drift, (x.col(i) - t.x.col(i)).norm());
+    MESSAGE("D = " << D << ": " << passes << " passes, up to " << moved << " of " << nr
+                   << " particles moved per pass, max drift " << drift / L << " L, min signed distance "
+                   << smin / L << " L");
+    // Near-wall particles move parallel to their (flat) walls and are pushed off the concave corner;
+    // others come no closer than L (α_w L) before they get a copy: min s stays L/2 (1e-12 L rounding).
+    CHECK(smin >= 0.5 * L * (1.0 - 1e-12));
+    CHECK(moved > 0);  // the lattice does not fit the incline: shifting is not idle
+  }
+
+  TEST_CASE("cases: polygon tank refuses bad configurations") {
+    cases::polygon_tank_config c;
+    c.angle_deg = 20.0;
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<2>(c), doctest::Contains("angle_deg"), mpskit::error);
+    c = {};
+    c.tank_height = c.H;
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<2>(c), doctest::Contains("tank_height"), mpskit::error);
+    c = {};
+    c.L = -1.0;
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<3>(c), doctest::Contains("L = -1"), mpskit::error);
+    c = {};
+    c.B = 0.005;
+    CHECK_NOTHROW(cases::make_polygon_tank<2>(c));  // B is a 3D number
+    CHECK_THROWS_WITH_AS(cases::make_polygon_tank<3>(c), doctest::Contains("L: is 0.01"), mpskit::error);
+  }
+
+  TEST_CASE("cases: Tanaka dam break vessel, column, probe and front") {
+    for (const double L : {0.001, 0.003, 0.0025}) {
+      CAPTURE(L);
+      cases::tanaka_dam_break_config cfg;
+      cfg.L = L;
+      const cases::tanaka_dam_break d = cases::make_tanaka_dam_break(cfg);
+      const double smin = min_signed_distance<2>(d.walls, d.x);
+      CHECK(smin >= 0.5 * L - 1e-12);
+      // Column area 0.1 × 0.2 m²: left wall and floor are lattice-aligned; the right and top free
+      // faces lose at most one layer when L does not divide 0.1 or 0.2. Bound: L × (0.1 + 0.2).
+      const double NV = static_cast<double>(d.size()) * L * L, V = 0.1 * 0.2;
+      MESSAGE("L = " << L << ": " << d.size() << " particles (paper, L = 1 mm: " << cases::tanaka_dam_break::paper_particles
+                     << "), N L^2 / V = " << NV / V);
+      CHECK(std::abs(NV - V) <= L * (0.1 + 0.2));
+      if (L == 0.001) CHECK(d.size() == 100 * 200);  // L divides both sides
+      bool in_column = true;
+      for (index_t i = 0; i < d.size(); ++i)
+        in_column = in_column && d.x(0, i) > -0.2 && d.x(0, i) < -0.1 && d.x(1, i) > 0.0 && d.x(1, i) < 0.2;
+      CHECK(in_column);
+      // Normals into the vessel: left wall +x, floor +y, right wall −x (elements in that order).
+      REQUIRE(d.walls.size() == 3);
+      CHECK((d.walls.element_normal(0) - vec<2>(1.0, 0.0)).norm() <= 1e-15);
+      CHECK((d.walls.element_normal(1) - vec<2>(0.0, 1.0)).norm() <= 1e-15);
+      CHECK((d.walls.element_normal(2) - vec<2>(-1.0, 0.0)).norm() <= 1e-15);
+      // Probe (195 mm, 5 mm): 5 mm from the right wall and from the floor.
+      CHECK((d.probe() - vec<2>(0.195, 0.005)).norm() <= 1e-15);
+      CHECK(d.walls.signed_distance(d.probe()) == doctest::Approx(0.005).epsilon(1e-12));
+      // Front at t = 0: the column's right face, h = h0 when L divides h0 (h* = 1, as the first sample
+      // of cases/dam_break.hpp); otherwise h0 − L < h ≤ h0.
+      const Eigen::VectorXd diam = d.diameters();
+      const auto all = [](index_t) { return true; };
+      const double h = d.front(d.x, diam, d.size(), all);
+      CHECK(h <= d.h0() + 1e-12);
+      CHECK(h > d.h0() - L);
+      if (L == 0.001 || L == 0.0025) CHECK(d.front_star(d.x, diam, d.size(), all) == doctest::Approx(1.0).epsilon(1e-12));
+      // Only counted particles define the front; none counted gives NaN.
+      const index_t far = [&] {
+        index_t k = 0;
+        for (index_t i = 0; i < d.size(); ++i)
+          if (d.x(0, i) > d.x(0, k)) k = i;
+        return k;
+      }();
+      const double x_far = d.x(0, far);
+      const auto not_front_column = [&](index_t i) { return d.x(0, i) < x_far - 0.5 * L; };
+      CHECK(d.front(d.x, diam, d.size(), not_front_column) == doctest::Approx(h - L).epsilon(1e-12));
+      CHECK(std::isnan(d.front(d.x, diam, d.size(), [](index_t) { return false; })));
+      CHECK(d.t_star(0.1) == doctest::Approx(0.1 * std::sqrt(2.0 * 9.8 / 0.1)));
+    }
+  }
+
+  TEST_CASE("cases: Tanaka dam break refuses bad configurations") {
+    cases::tanaka_dam_break_config c;
+    c.L = 0.0;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("L = 0"), mpskit::error);
+    c = {};
+    c.column_height = 0.4;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("column_height"), mpskit::error);
+    c = {};
+    c.vessel_right = -0.3;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("vessel_right"), mpskit::error);
+    const cases::tanaka_dam_break d = cases::make_tanaka_dam_break({.L = 0.01});
+    CHECK_THROWS_AS(d.front(d.x, d.diameters(), d.size() + 1, [](index_t) { return true; }), mpskit::error);
   }
 }

@@ -273,6 +273,83 @@ class polygon_set final {
     return first_crossing(pose_.apply(a_ref), b);
   }
 
+  /// Calls f(c) for every element whose closest point to x lies within max_distance (closed:
+  /// distance <= max_distance), with c the element's closest point (point, element, barycentric
+  /// weights, unsigned distance, feature kind). Order: the hierarchy's traversal order, which depends
+  /// on x only (deterministic); sort by c.element if an order is needed. Used by wall::make_imaginary
+  /// (one imaginary copy per face, Tanaka 2018 §4.5.1 as extended by issue #7).
+  template <class F>
+  void for_each_element_within(const vec<D>& x, double max_distance, F&& f) const {
+    if (!(max_distance >= 0.0)) return;
+    const double bound2 = max_distance * max_distance;
+    hierarchy_.nearest(
+        x,
+        [&](index_t e) {
+          const detail::element_closest<D> ec = detail::closest_on_element<D>(x, element(e));
+          const double d2 = (x - ec.point).squaredNorm();
+          if (!(d2 <= bound2)) return;
+          closest_point<D> c;
+          c.point = ec.point;
+          c.element = e;
+          c.weights = ec.weights;
+          c.distance = std::sqrt(d2);
+          c.kind = ec.kind;
+          c.local = ec.local;
+          f(static_cast<const closest_point<D>&>(c));
+        },
+        [bound2]() { return bound2; });
+  }
+
+  /// Closest point of one element e to x (point, weights, unsigned distance, feature kind).
+  closest_point<D> closest_on(index_t e, const vec<D>& x) const {
+    MPSKIT_ASSERT(e >= 0 && e < size());
+    const detail::element_closest<D> ec = detail::closest_on_element<D>(x, element(e));
+    closest_point<D> c;
+    c.point = ec.point;
+    c.element = e;
+    c.weights = ec.weights;
+    c.distance = (x - ec.point).norm();
+    c.kind = ec.kind;
+    c.local = ec.local;
+    return c;
+  }
+
+  /// First element *entered* moving from a to b: the smallest t among the elements the closed segment
+  /// touches while moving against their fluid-side normal (ties to the lower element). Unlike
+  /// first_crossing, a leaving hit at a smaller t (from behind an element) does not hide a later
+  /// entering one; with a double-sided thin wall (two coincident elements of opposite orientation)
+  /// every crossing enters one of the two (wall-crossing guard, docs/walls.md).
+  std::optional<crossing<D>> first_entering_crossing(const vec<D>& a, const vec<D>& b) const {
+    const vec<D> d = b - a;
+    double best_t = std::numeric_limits<double>::infinity();
+    index_t best_e = npos;
+    hierarchy_.segment(a, d, [&](index_t e) {
+      if (!(d.dot(normals_.col(e)) < 0.0)) return false;
+      const double t = detail::segment_hits_element<D>(a, b, element(e));
+      if (t >= 0.0 && (t < best_t || (t == best_t && e < best_e))) {
+        best_t = t;
+        best_e = e;
+      }
+      return false;
+    });
+    if (best_e == npos) return std::nullopt;
+    crossing<D> c;
+    c.t = best_t;
+    c.point = a + best_t * d;
+    c.element = best_e;
+    c.normal = normals_.col(best_e);
+    c.entering = true;
+    return c;
+  }
+
+  /// first_entering_crossing for a set that moved rigidly from `previous_pose` to the current pose:
+  /// a is carried with the wall (as in the three-argument first_crossing).
+  std::optional<crossing<D>> first_entering_crossing(const vec<D>& a, const vec<D>& b,
+                                                     const rigid_transform<D>& previous_pose) const {
+    const vec<D> a_ref = previous_pose.rotation.transpose() * (a - previous_pose.translation);
+    return first_entering_crossing(pose_.apply(a_ref), b);
+  }
+
   /// Sets the pose from the prescribed motion at time t and refits the hierarchy.
   void move_to(double t) {
     time_ = t;

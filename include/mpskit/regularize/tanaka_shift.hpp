@@ -20,7 +20,9 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <concepts>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/dimension.hpp"
@@ -45,12 +47,12 @@ struct tanaka_shift_params {
     validator v("tanaka_shift_params");
     v.non_negative("alpha_g", alpha_g).non_negative("alpha_T", alpha_T).positive("alpha_S", alpha_S);
     if (!(alpha_p >= 0.0 && alpha_p < 1.0))
-      v.require(false, "alpha_p", mpskit::detail::concat("= ", alpha_p, ": must be in [0, 1)"));
+      v.require(false, "alpha_p", mpskit::detail::concat("is ", alpha_p, ", must be in [0, 1)"));
     if (!(std::isfinite(re_ratio) && re_ratio > 1.0))
-      v.require(false, "re_ratio", mpskit::detail::concat("= ", re_ratio, ": must be a finite number > 1 (R_ij > L_ij)"));
+      v.require(false, "re_ratio", mpskit::detail::concat("is ", re_ratio, ", must be a finite number > 1 (R_ij > L_ij)"));
     else if (std::isfinite(alpha_T) && !(alpha_T < re_ratio))
       v.require(false, "alpha_T",
-                mpskit::detail::concat("= ", alpha_T, ": must be < re_ratio = ", re_ratio, " (eq. 95 divides by R_ij - alpha_T L_ij)"));
+                mpskit::detail::concat("is ", alpha_T, ", must be < re_ratio = ", re_ratio, " (eq. 95 divides by R_ij - alpha_T L_ij)"));
     v.throw_if_any();
   }
 };
@@ -90,15 +92,20 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 /// - participates(j): j counts as a neighbour (non-isolated fluid or wall copy).
 /// - Rows i < m with active[i] = 1 are computed (non-isolated real fluid); others get δx = 0.
 ///   grad_c (⟨∇c⟩_i), n (outward unit normal or 0) and tangential_only (eq. 99) must cover ≥ m rows.
+/// - n_wall (optional, ≥ m columns, unit or 0): a second normal for tangential_only particles near a
+///   wall (the wall normal of their imaginary copy); eq. 99 then removes the components along n and
+///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
+  requires std::predicate<const Participates&, index_t>
 tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eigen::VectorXd& L,
                                               const search::neighbour_list<D>& nl,
                                               const Participates& participates, const points<D>& grad_c,
                                               const points<D>& n,
                                               const std::vector<std::uint8_t>& tangential_only,
                                               const std::vector<std::uint8_t>& active,
-                                              const tanaka_shift_params& p, points<D>& dx) {
+                                              const tanaka_shift_params& p, points<D>& dx,
+                                              const points<D>* n_wall = nullptr) {
   p.validate();
   const index_t rows = x.cols();
   const index_t m = static_cast<index_t>(active.size());
@@ -107,6 +114,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   if (m > rows) fail("tanaka_shift: active has ", m, " entries for ", rows, " positions (accepted: at most x.cols())");
   if (grad_c.cols() < m) fail("tanaka_shift: grad_c has ", grad_c.cols(), " columns, need >= active.size() = ", m);
   if (n.cols() < m) fail("tanaka_shift: n has ", n.cols(), " columns, need >= active.size() = ", m);
+  if (n_wall && n_wall->cols() < m)
+    fail("tanaka_shift: n_wall has ", n_wall->cols(), " columns, need >= active.size() = ", m);
   if (static_cast<index_t>(tangential_only.size()) < m)
     fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
   for (index_t i = 0; i < rows; ++i)
@@ -145,7 +154,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       // i.e. x_j moved by r*_ij toward i. Its offset from x_i is x_ij − r* x_ij/r = x_ij (1 − r*/r).
       // Two particles alone at r = 0.5 L: r* = L (eq. 95, r ≤ α_T L), offset = −x_ij: i is sent to
       // distance L from j, away from j (pushed apart). At r = 2 L (R = 3.1 L): r* = 2.096 L > r, so
-      // i is again pushed away, by w (r* − r) = 0.127 × 0.096 L: eq. 95 never pulls inside R_ij.
+      // i is again pushed away, by w (r* − r) = 0.126 × 0.096 L: eq. 95 never pulls inside R_ij.
       const double rs = detail::target_distance(r, Lij, Rij, p.alpha_T);
       sum_g += (w * (1.0 - rs / r)) * xij;
       sum_w += w;
@@ -162,12 +171,24 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       d -= (penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|; eq. 98: δx = δx* + δx**
     if (tangential_only[k]) {
       const vec<D> ni = n.col(i);
+      bool any = false;
       if (ni.squaredNorm() > 0.0) {
         d -= ni.dot(d) * ni;  // eq. 99: (I − n⊗n) δx
-        projected[k] = 1;
-      } else {
-        unprojected[k] = 1;
+        any = true;
       }
+      if (n_wall) {
+        // Second constraint (a surface particle next to a wall, or a concave corner): eq. 99 applied
+        // to the part of the wall normal orthogonal to n (Gram–Schmidt), so δx ⊥ n and δx ⊥ n_wall.
+        vec<D> t2 = n_wall->col(i);
+        if (any) t2 -= ni.dot(t2) * ni;
+        const double t2n = t2.norm();
+        if (t2n > 1e-8) {  // else n_wall is 0 or parallel to n: nothing more to remove
+          t2 /= t2n;
+          d -= t2.dot(d) * t2;
+          any = true;
+        }
+      }
+      (any ? projected[k] : unprojected[k]) = 1;
     }
     const double len = d.norm(), cap = p.alpha_S * Li;
     if (len > cap) {  // eq. 100: scaled down, direction kept (stays tangential after eq. 99)
@@ -200,6 +221,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
 /// i < dx.cols(). grad_u(i) returns mat<D> with (∇u)_ab = ∂u_a/∂x_b, evaluated at the unshifted
 /// positions (e.g. the caller's LSMPS type-A velocity gradient, computed before this call).
 template <int D, Execution E, class GradU>
+  requires std::convertible_to<std::invoke_result_t<const GradU&, index_t>, mat<D>>
 void apply_tanaka_shift(E e, const points<D>& dx, const GradU& grad_u, points<D>& x, points<D>& u) {
   const index_t m = dx.cols();
   if (x.cols() < m || u.cols() < m)

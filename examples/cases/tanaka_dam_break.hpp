@@ -1,0 +1,105 @@
+#pragma once
+// Dam break of Tanaka, Cardoso & Bahai (2018) §5.6.1 (validation-cases.md A6), for the LSMPS solver
+// with polygon walls (issue #7, label dam_break_lsmps): vessel 400 mm wide, x ∈ [−200, 200] mm, bottom
+// at y = 0; water column 100 mm wide × 200 mm high against the left wall, x ∈ [−200, −100] mm.
+// The vessel height is not in the paper: the side walls are 300 mm tall (1.5 × the column) with an
+// open top. Probe: pressure at (195 mm, 5 mm). Front: h = max x of the counted (non-isolated) fluid
+// particles + L_i/2, measured from the left wall x = −200 mm; h* = h/h0 against t* = t √(2g/h0) with
+// h0 = 100 mm, the same (T, Z) as cases/dam_break.hpp (Z = front/a, T = t √(2g/a), front including
+// the half extent l0/2), so read_front_series and front_band there compare it with
+// ../shared/data/dam_break_front (Martin & Moyce 1952, Koshizuka & Oka 1996).
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "cases/polygon_tank.hpp"
+#include "mpskit/core/dimension.hpp"
+#include "mpskit/core/error.hpp"
+#include "mpskit/core/params.hpp"
+#include "mpskit/geometry/generators.hpp"
+#include "mpskit/geometry/polygon_set.hpp"
+#include "mpskit/wall/polygon_layers.hpp"
+
+namespace mpskit::cases {
+
+/// Numbers of Tanaka's dam break (SI units; paper values from validation-cases.md A6).
+struct tanaka_dam_break_config {
+  double L = 0.001;               ///< particle diameter = spacing (paper single resolution: 1 mm); accepted (0, 0.1]
+  double vessel_left = -0.2;      ///< left wall x (m)
+  double vessel_right = 0.2;      ///< right wall x (m)
+  double vessel_height = 0.3;     ///< side-wall height (m; not in the paper, 1.5 × column height)
+  double column_width = 0.1;      ///< h0 (m): the column spans [vessel_left, vessel_left + h0]
+  double column_height = 0.2;     ///< column height (m)
+  double rho = 1000.0;            ///< density (kg/m³)
+  double mu = 0.001;              ///< dynamic viscosity (Pa s)
+  double g = 9.8;                 ///< gravity magnitude (m/s², the paper's 9.8)
+  /// Throws mpskit::error listing every bad value.
+  void validate() const {
+    validator v("tanaka_dam_break_config");
+    v.positive("L", L).finite("vessel_left", vessel_left).finite("vessel_right", vessel_right);
+    v.positive("vessel_height", vessel_height).positive("column_width", column_width);
+    v.positive("column_height", column_height).positive("rho", rho).non_negative("mu", mu).positive("g", g);
+    v.require(vessel_right > vessel_left, "vessel_right", "must exceed vessel_left");
+    v.require(column_width <= vessel_right - vessel_left, "column_width", "must fit in the vessel");
+    v.require(column_height < vessel_height, "column_height", "must be below vessel_height");
+    if (std::isfinite(L) && L > 0.0 && !(L <= column_width && L <= column_height))
+      v.require(false, "L", mpskit::detail::concat("is ", L, ", must be <= min(column_width, column_height)"));
+    v.throw_if_any();
+  }
+};
+
+/// The dam break set-up: walls, fluid particles, probe and front helpers.
+struct tanaka_dam_break {
+  tanaka_dam_break_config config;   ///< the numbers it was built from
+  geometry::polygon_set<2> walls;   ///< open-top vessel: left wall, floor, right wall (normals into the vessel)
+  points<2> x;                      ///< fluid particle positions (m)
+  double L = 0.0;                   ///< particle diameter (m)
+
+  static constexpr index_t paper_particles = 19969;     ///< single-resolution count in the paper (§5.6.1)
+  static constexpr double paper_peak_pressure = 4433.01;        ///< Pa, single resolution, sampled every 100 steps
+  static constexpr double paper_peak_pressure_multi = 4699.80;  ///< Pa, multi-resolution
+
+  /// Number of fluid particles.
+  index_t size() const { return x.cols(); }
+  /// Per-particle diameters (all L).
+  Eigen::VectorXd diameters() const { return Eigen::VectorXd::Constant(x.cols(), L); }
+  /// h0: the initial column width (m).
+  double h0() const { return config.column_width; }
+  /// Pressure probe at (195 mm, 5 mm): 5 mm from the right wall and the floor (vessel_right − 5 mm).
+  vec<2> probe() const { return vec<2>(config.vessel_right - 0.005, 0.005); }
+  /// t* = t √(2g/h0) (Tanaka Fig. 26a; Koshizuka & Oka's T).
+  double t_star(double t) const { return t * std::sqrt(2.0 * config.g / h0()); }
+  /// Front h (m) = max over the first n particles with counted(i) of x_i + L_i/2, minus the left wall x;
+  /// NaN when no particle is counted. counted(i): non-isolated real fluid (c_i ≥ α_c).
+  template <class Counted>
+  double front(const points<2>& pos, const Eigen::VectorXd& diam, index_t n, const Counted& counted) const {
+    if (n > pos.cols() || n > diam.size())
+      fail("tanaka_dam_break::front: n = ", n, " exceeds the positions (", pos.cols(), ") or diameters (",
+           diam.size(), ")");
+    double f = -std::numeric_limits<double>::infinity();
+    for (index_t i = 0; i < n; ++i)
+      if (counted(i)) f = std::max(f, pos(0, i) + 0.5 * diam[i]);
+    return std::isfinite(f) ? f - config.vessel_left : std::nan("");
+  }
+  /// h* = h/h0 (Fig. 26a; Z of cases/dam_break.hpp).
+  template <class Counted>
+  double front_star(const points<2>& pos, const Eigen::VectorXd& diam, index_t n, const Counted& counted) const {
+    return front(pos, diam, n, counted) / h0();
+  }
+};
+
+/// Builds the vessel (geometry::tank: polyline (left, top) → (left, 0) → (right, 0) → (right, top), left
+/// normals into the vessel) and fills the column with the lattice vessel_left + (k + ½) L, (m + ½) L
+/// kept where the signed distance to the walls is ≥ L/2 (1e-12 L rounding allowance): with L dividing
+/// h0 and the column height this is exactly (h0/L) × (column_height/L) particles.
+inline tanaka_dam_break make_tanaka_dam_break(const tanaka_dam_break_config& c = {}) {
+  c.validate();
+  geometry::polygon_set<2> walls(geometry::tank(vec<2>(c.vessel_left, 0.0), vec<2>(c.vessel_right, c.vessel_height)));
+  const vec<2> origin(c.vessel_left, 0.0);
+  points<2> x = fill_half_spacing<2>(walls, origin, vec<2>(c.vessel_left + c.column_width, c.column_height), c.L,
+                                     origin);
+  return tanaka_dam_break{c, std::move(walls), std::move(x), c.L};
+}
+
+}  // namespace mpskit::cases

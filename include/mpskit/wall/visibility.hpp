@@ -1,0 +1,100 @@
+#pragma once
+/// \file wall/visibility.hpp
+/// \brief Thin walls: a pair-visibility predicate for search::neighbour_list::build (issue #7 item 8).
+/// Particles i and j see each other unless the segment between them touches a wall element
+/// (polygon_set::crosses, a closed test). An imaginary copy lies ON its wall, so the closed segment would
+/// always touch its own element: a copy's end is pulled off the wall by `pull`·L′ along its normal toward
+/// the fluid, so it sees its own side and not the other side of a thin wall. See docs/walls.md.
+#include <Eigen/Core>
+#include <cmath>
+#include <limits>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "mpskit/core/dimension.hpp"
+#include "mpskit/core/error.hpp"
+#include "mpskit/core/exec.hpp"
+#include "mpskit/geometry/polygon_set.hpp"
+#include "mpskit/geometry/wall_collection.hpp"
+#include "mpskit/search/domain.hpp"
+#include "mpskit/wall/imaginary.hpp"
+
+namespace mpskit::wall {
+
+/// Pair visibility across walls for the neighbour search: `visible(i, j)` over the columns of x (real
+/// particles [0, n_real), then the imaginary copies in the order of `copies`). Symmetric in (i, j).
+/// Aggregate: `wall_visibility<D>{&walls, &x, n_real, &copies}`; call prepare() once the positions are
+/// final (it checks the sizes and stores per-particle wall clearances that skip the segment test for
+/// pairs that cannot reach a wall).
+template <int D, class Walls = geometry::polygon_set<D>>
+struct wall_visibility {
+  const Walls* walls = nullptr;  ///< polygon_set<D> or wall_collection<D>
+  const points<D>* x = nullptr;  ///< positions: real particles, then ghosts
+  index_t n_real = 0;            ///< number of real particles (columns before the ghost range)
+  const std::vector<imaginary_copy<D>>* copies = nullptr;  ///< ghost k = column n_real + k (normals, L′)
+  const search::domain<D>* dom = nullptr;  ///< periodic axes (minimum image of x_j − x_i), optional
+  double pull = 1e-6;                      ///< a copy's end is moved pull·L′ along its normal (range (0, 0.01])
+  std::vector<double> clearance{};          ///< lower bounds of the wall distance per column (prepare())
+
+  /// Checks the sizes (copies must match the ghost range) and computes clearances: the distance of each
+  /// real particle to the walls, capped at max_distance (any value is correct; the largest pair distance
+  /// of the build prunes best), and 0 for ghosts.
+  template <Execution E>
+  void prepare(E e, double max_distance) {
+    if (!walls || !x) fail("wall::wall_visibility: walls and x must be set");
+    if (n_real < 0 || n_real > x->cols())
+      fail("wall::wall_visibility: n_real = ", n_real, ", accepted range [0, ", x->cols(), "]");
+    const index_t ghosts = x->cols() - n_real;
+    if (ghosts > 0 && (!copies || static_cast<index_t>(copies->size()) != ghosts))
+      fail("wall::wall_visibility: ", ghosts, " ghost columns but ", copies ? copies->size() : 0,
+           " imaginary copies (copies must describe the ghost range)");
+    if (!(pull > 0.0 && pull <= 0.01)) fail("wall::wall_visibility: pull = ", pull, ", accepted range (0, 0.01]");
+    if (!(max_distance >= 0.0)) fail("wall::wall_visibility: max_distance = ", max_distance, ", accepted range [0, inf]");
+    clearance.assign(static_cast<std::size_t>(x->cols()), 0.0);
+    for_each_particle(e, n_real, [&](index_t i) {
+      const vec<D> xi = x->col(i);
+      double d;
+      if constexpr (std::is_same_v<Walls, geometry::polygon_set<D>>)
+        d = walls->closest(xi, max_distance).distance;
+      else
+        d = walls->query(xi, max_distance).distance;
+      clearance[static_cast<std::size_t>(i)] = std::isfinite(d) ? d : max_distance;
+    });
+  }
+
+  /// True unless the segment between the two particles (a copy's end pulled off its wall) touches a wall.
+  bool operator()(index_t i, index_t j) const {
+    if (j < i) std::swap(i, j);  // symmetric: the same segment is tested for (i, j) and (j, i)
+    const vec<D> raw = x->col(j) - x->col(i);
+    vec<D> d = raw;
+    if (dom) dom->minimum_image(d);
+    const bool shifted = d != raw;
+    // Clearance shortcut (unshifted pairs only: the clearances belong to the particles' own positions,
+    // not to their periodic images): a segment touching a wall at p has r = |x_i − p| + |p − x_j| ≥ d_i + d_j.
+    if (!shifted && clearance.size() == static_cast<std::size_t>(x->cols())) {
+      const double c = clearance[static_cast<std::size_t>(i)] + clearance[static_cast<std::size_t>(j)];
+      if (c * c > d.squaredNorm()) return true;
+    }
+    const vec<D> a = end_point(i, x->col(i));
+    const vec<D> b = end_point(j, (x->col(i) + d).eval());
+    if (walls->crosses(a, b)) return false;
+    // Through a periodic seam the image segment is also tested from j's side, so a wall near either
+    // end (within one period of the particle's own position) is seen.
+    if (shifted) {
+      const vec<D> a2 = end_point(i, (x->col(j) - d).eval());
+      const vec<D> b2 = end_point(j, x->col(j));
+      if (walls->crosses(a2, b2)) return false;
+    }
+    return true;
+  }
+
+ private:
+  vec<D> end_point(index_t i, const vec<D>& xi) const {
+    if (i < n_real || !copies) return xi;
+    const imaginary_copy<D>& c = (*copies)[static_cast<std::size_t>(i - n_real)];
+    return xi + pull * c.L * c.normal;
+  }
+};
+
+}  // namespace mpskit::wall
