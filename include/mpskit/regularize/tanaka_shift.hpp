@@ -35,6 +35,14 @@
 
 namespace mpskit::regularize {
 
+/// Direction of the penalty displacement δx** (eq. 96).
+enum class penalty_direction : std::uint8_t {
+  concentration_gradient,  ///< −⟨∇c⟩/|⟨∇c⟩| for every overlapping pair, as eq. 96 is printed
+  pair                     ///< −x_ij/r_ij per overlapping pair: pushes i away from each overlapping j (a
+                           ///< deviation, docs/regularize.md: the printed direction does not separate a
+                           ///< pair and let the Taylor–Green vortex collapse at its saddles)
+};
+
 /// Numbers of Tanaka's shifting (Tanaka 2018, parameter table of §2).
 struct tanaka_shift_params {
   double alpha_g = 0.001;  ///< α_g: δx* = 0 when |g_i − x_i| ≤ α_g L_i (eq. 93); accepted [0, inf)
@@ -42,6 +50,7 @@ struct tanaka_shift_params {
   double alpha_p = 0.1;    ///< α_p: penalty below (1 − α_p) L_ij (eq. 97); accepted [0, 1)
   double alpha_S = 0.01;   ///< α_S: |δx_i| ≤ α_S L_i (eq. 100); accepted (0, inf)
   double re_ratio = 3.1;   ///< R_i = re_ratio L_i, R_ij = (R_i + R_j)/2 (eqs. 27–28); accepted (1, inf)
+  penalty_direction penalty = penalty_direction::concentration_gradient;  ///< eq. 96 as printed, or per pair
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("tanaka_shift_params");
@@ -137,6 +146,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     vec<D> sum_g = vec<D>::Zero();  // Σ_j w_ij (x_j + r*_ij x_ji/|x_ji| − x_i)   (eq. 94 minus x_i Σ w)
     double sum_w = 0.0;             // Σ_j w_ij                                   (eq. 94)
     double penalty = 0.0;           // Σ_j w_ij ε_ij L_ij                         (eqs. 96–97, length form)
+    vec<D> penalty_pair = vec<D>::Zero();  // −Σ_j w_ij ε_ij L_ij x_ij/r_ij      (penalty_direction::pair)
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
       if (!participates(j)) return;
@@ -145,7 +155,10 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       const double Rij = p.re_ratio * Lij;    // R_ij = (R_i + R_j)/2 (eq. 28)
       const double w = kernel::quadratic::w(r, Rij);  // eq. 29
       const double pen_edge = (1.0 - p.alpha_p) * Lij;
-      if (r < pen_edge) penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
+      if (r < pen_edge) {
+        penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
+        if (r2 > 0.0) penalty_pair -= (w * (pen_edge - r) / r) * xij;
+      }
       if (r2 == 0.0) {  // x_ji/|x_ji| undefined: out of eq. 94
         ++zero_pairs;
         return;
@@ -165,10 +178,14 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       const vec<D> gx = sum_g / sum_w;  // g_i − x_i (eq. 94)
       if (gx.norm() > p.alpha_g * Li) d = gx;  // eq. 93
     }
-    const vec<D> gc = grad_c.col(i);
-    const double gnorm = gc.norm();
-    if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0)
-      d -= (penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|; eq. 98: δx = δx* + δx**
+    if (p.penalty == penalty_direction::pair) {
+      d += penalty_pair;  // eq. 96 read per pair (a deviation); eq. 98: δx = δx* + δx**
+    } else {
+      const vec<D> gc = grad_c.col(i);
+      const double gnorm = gc.norm();
+      if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0)
+        d -= (penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|; eq. 98: δx = δx* + δx**
+    }
     if (tangential_only[k]) {
       const vec<D> ni = n.col(i);
       bool any = false;

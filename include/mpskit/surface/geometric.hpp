@@ -63,6 +63,12 @@ enum class geometric_step : std::uint8_t {
 };
 
 /// The counts behind one decision.
+/// The scene policy naming this detection (`using surface = mpskit::surface::geometric_detector;`), run by
+/// scheme::lsmps_semi_implicit (normals, then geometric(), copies inheriting their parent's flag).
+struct geometric_detector final {
+  using params_type = geometric_params;
+};
+
 template <int D>
 struct geometric_result {
   geometric_step step = geometric_step::inside;  ///< the deciding step

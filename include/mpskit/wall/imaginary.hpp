@@ -45,6 +45,12 @@ struct imaginary_params {
 };
 
 /// One imaginary wall particle (a ghost: role ghost_role::imaginary, regenerated every step).
+/// The scene policy naming polygon walls with imaginary particles (`using walls = mpskit::wall::imaginary;`),
+/// run by scheme::lsmps_semi_implicit; the numbers are in imaginary_params.
+struct imaginary final {
+  using params_type = imaginary_params;
+};
+
 template <int D>
 struct imaginary_copy {
   index_t parent = npos;              ///< real particle it was copied from
