@@ -90,6 +90,20 @@ inline regularize::tanaka_shift_params pair_penalty_shift() {
   return p;
 }
 
+/// The PPE row at an imaginary copy.
+enum class copy_row_kind {
+  constrained_poisson,  ///< the det F equation with the Neumann-constrained LSMPS (eqs. 85–87)
+  neumann,              ///< eq. 83 itself, (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt, with the plain LSMPS gradient
+  parent_gradient       ///< (1/ρ) n·⟨∇p⟩_parent = (u′_parent − u_wall)·n/Δt: the parent's corrected normal
+                        ///< velocity vanishes (a deviation; docs/solver.md)
+};
+
+/// Which fluid velocity u′_w enters a copy's wall condition (eq. 83).
+enum class copy_neumann_velocity {
+  average,  ///< w-weighted average of the fluid neighbours' u′ (Tanaka §4.5.1's recommendation)
+  parent    ///< the parent's own u′ (the copy is its parent's projection on the wall)
+};
+
 /// Runtime numbers of the LSMPS scheme, with Tanaka 2018's defaults (Table 2).
 template <int D>
 struct lsmps_params {
@@ -106,6 +120,8 @@ struct lsmps_params {
   regularize::tanaka_shift_params shift = pair_penalty_shift();
   bool thin_walls = true;               ///< pairs whose segment crosses a wall are not neighbours (walls
                                         ///< thinner than the support; +~40 % list-build time, off if none)
+  copy_row_kind copy_row = copy_row_kind::parent_gradient;  ///< the row at a copy (docs/solver.md: the most stable measured)
+  copy_neumann_velocity copy_neumann = copy_neumann_velocity::parent;  ///< u′_w in eq. 83
   copy_velocity_in_source copy_velocity = copy_velocity_in_source::extrapolated;  ///< see the enum
   negative_pressure negative = negative_pressure::keep;  ///< LSMPS needs no clamping (Tanaka §4.7)
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
@@ -279,13 +295,14 @@ class lsmps_semi_implicit {
       surface::geometric(exec::par{}, x, L_, nl_, participates, normal_, p_.surface, surface_, wanted);
       for (index_t i = 0; i < n; ++i)
         if (!participates(i)) surface_[static_cast<std::size_t>(i)] = 0;
+      if constexpr (has_walls) wall_blocks_cone(n);
       for (index_t k = n; k < nt; ++k) surface_[static_cast<std::size_t>(k)] = surface_[static_cast<std::size_t>(parent(k))];
       for (index_t i = 0; i < nt; ++i)
         if (surface_[static_cast<std::size_t>(i)]) flags[static_cast<std::size_t>(i)] |= flag::surface;
     }
 
     // 6. LSMPS moments at x^k; copies carry the Neumann constraint.
-    if constexpr (has_walls) {
+    if (has_walls && p_.copy_row == copy_row_kind::constrained_poisson) {
       constrained_.assign(static_cast<std::size_t>(nt), 0);
       for (index_t k = n; k < nt; ++k) constrained_[static_cast<std::size_t>(k)] = 1;
       op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, op::neumann_constraint<D>{&normal_, &constrained_},
@@ -323,6 +340,7 @@ class lsmps_semi_implicit {
         wsum += w;
       });
       ut_.col(k) = wsum > 0.0 ? vec<D>(sum / wsum) : s_.u().col(k);
+      if (p_.copy_neumann == copy_neumann_velocity::parent) ut_.col(k) = ut_.col(parent(k));
     });
 
     // 8. PPE.
@@ -381,6 +399,54 @@ class lsmps_semi_implicit {
   double re(index_t i) const { return p_.op.re_ratio * L_[i]; }
   search::support<search::per_particle_radius> support() const {
     return {search::per_particle_radius{&L_, p_.op.re_ratio}, search::radius_rule::pair_mean};
+  }
+
+  /// The wall as a neighbour of the cone tests (a deviation, docs/solver.md). Copies sample the wall only
+  /// where a fluid particle is within α_w L, so a cone can look into the solid between them: beside an
+  /// inclined wall the reflected cone (eq. 89) found the lattice's staircase gaps, and in 3D the cone of a
+  /// particle next to an edge of two walls contained neither copy; both flagged particles inside the fluid
+  /// as free surface (measured: 3 of 11 rows beside a 60° incline; 32 edge particles of a 3D box). A flag of
+  /// the second step (eq. 88) is withdrawn when the whole cone is solid: its axis and the 2(D − 1) rays on
+  /// its rim at θ1 all meet a wall within α_θ L_i (a contact-line particle, whose cone is partly open, stays
+  /// flagged); a flag of the third step (eq. 89) when n′ meets the plane of the closest wall point within
+  /// α_θ L_i.
+  void wall_blocks_cone(index_t n) {
+    const points<D>& x = s_.x();
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    const double c1 = std::cos(p_.surface.theta1), s1 = std::sin(p_.surface.theta1);
+    for_each_particle(exec::par{}, n, [&](index_t i) {
+      if (!surface_[static_cast<std::size_t>(i)]) return;
+      const double reach = p_.surface.alpha_theta * L_[i];
+      const vec<D> xi = x.col(i);
+      const auto q = walls_->query(xi, reach);
+      if (!q.found()) return;
+      const auto g = surface::geometric_of(x, L_, nl_, participates, vec<D>(normal_.col(i)), p_.surface, i);
+      if (g.step == surface::geometric_step::reflected_cone) {
+        // Third step: withdrawn when n′ meets the plane of the closest wall point within α_θ L_i.
+        const double toward = -g.n_prime.dot(q.normal);
+        if (toward > 0.0 && q.signed_distance < reach * toward) surface_[static_cast<std::size_t>(i)] = 0;
+        return;
+      }
+      if (g.step != surface::geometric_step::cone) return;
+      vec<D> axis = normal_.col(i);
+      if (!(axis.norm() > 0.0)) return;
+      axis.normalize();
+      // Two (2D) or four (3D) unit vectors perpendicular to the axis.
+      vec<D> e1 = vec<D>::Zero();
+      int k = 0;
+      for (int a = 1; a < D; ++a)
+        if (std::abs(axis[a]) < std::abs(axis[k])) k = a;
+      e1[k] = 1.0;
+      e1 -= axis.dot(e1) * axis;
+      e1.normalize();
+      const auto solid = [&](const vec<D>& dir) { return walls_->first_crossing(xi, vec<D>(xi + reach * dir)).has_value(); };
+      bool blocked = solid(axis) && solid(vec<D>(c1 * axis + s1 * e1)) && solid(vec<D>(c1 * axis - s1 * e1));
+      if constexpr (D == 3) {
+        const vec<D> e2 = axis.cross(e1);
+        blocked = blocked && solid(vec<D>(c1 * axis + s1 * e2)) && solid(vec<D>(c1 * axis - s1 * e2));
+      }
+      if (blocked) surface_[static_cast<std::size_t>(i)] = 0;
+    });
   }
 
   void sizes_from_volumes() {
@@ -481,11 +547,16 @@ class lsmps_semi_implicit {
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
     unk_.assign(static_cast<std::size_t>(nt), npos);
     rows_.clear();
-    for (index_t i = 0; i < nt; ++i)
-      if (participates(i) && !surface_[static_cast<std::size_t>(i)]) {
+    for (index_t i = 0; i < nt; ++i) {
+      // Unknowns: non-surface participating particles; with the parent-gradient wall row also the copies of
+      // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
+      // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step).
+      const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
+      if (participates(i) && (!surface_[static_cast<std::size_t>(i)] || copy_unknown)) {
         unk_[static_cast<std::size_t>(i)] = static_cast<index_t>(rows_.size());
         rows_.push_back(i);
       }
+    }
     for (index_t i = 0; i < nt; ++i)
       if (unk_[static_cast<std::size_t>(i)] == npos) pres[i] = 0.0;
     const index_t m = static_cast<index_t>(rows_.size());
@@ -501,30 +572,61 @@ class lsmps_semi_implicit {
     dpdn_.setZero(nt);
     for (index_t k = n; k < nt; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
 
-    std::vector<op::row_entries> rows(static_cast<std::size_t>(m));
+    // Each row as (particle column, coefficient) entries, sorted by particle, plus its right-hand side.
+    std::vector<std::vector<std::pair<index_t, double>>> entries(static_cast<std::size_t>(m));
     b_.resize(m);
     dirichlet_.assign(static_cast<std::size_t>(m), 0);
     for_each_particle(exec::par{}, m, [&](index_t r) {
       const index_t i = rows_[static_cast<std::size_t>(r)];
-      mat<D> A = mat<D>::Identity();
-      for (int a = 0; a < D; ++a) A.row(a) += dt * op_.gradient(x, nl_, i, comp_[a], participates).transpose();
-      const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
-      auto& row = rows[static_cast<std::size_t>(r)];
-      row.reset(i);
-      op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
-      row.merge();
-      const double c_i = i < n ? c_pack_[i] : 1.0;  // copies: no volume correction of their own
-      b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
-      bool dir = false;
-      for (const auto& [j, a] : row.columns())
-        if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) dir = true;
+      op::row_entries row;
+      if (i >= n && p_.copy_row == copy_row_kind::parent_gradient) {
+        // The copy's unknown makes its parent's corrected normal velocity vanish (a deviation, docs/solver.md):
+        // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
+        const index_t ip = parent(i);
+        row.reset(ip);
+        op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+                      participates, row);
+        b_[r] = dpdn_[i] / p_.rho - row.constant();
+      } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
+        // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
+        row.reset(i);
+        op_.build_row(x, nl_, i, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+                      participates, row);
+        b_[r] = dpdn_[i] / p_.rho - row.constant();
+      } else {
+        mat<D> A = mat<D>::Identity();
+        for (int a = 0; a < D; ++a) A.row(a) += dt * op_.gradient(x, nl_, i, comp_[a], participates).transpose();
+        const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
+        row.reset(i);
+        op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
+        const double c_i = i < n ? c_pack_[i] : 1.0;  // copies: no volume correction of their own
+        b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
+      }
+      auto& e = entries[static_cast<std::size_t>(r)];
+      e.clear();
+      for (const auto& [j, a] : row.columns()) e.emplace_back(j, a);
+      e.emplace_back(row.row(), row.diagonal());
+      std::stable_sort(e.begin(), e.end(), [](const auto& u, const auto& v) { return u.first < v.first; });
+      std::size_t out = 0;  // merge repeated columns
+      for (std::size_t q = 0; q < e.size(); ++q) {
+        if (out > 0 && e[out - 1].first == e[q].first) e[out - 1].second += e[q].second;
+        else e[out++] = e[q];
+      }
+      e.resize(out);
+      bool dir = false, has_self = false;
+      for (const auto& [j, a] : e) {
+        if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) dir = true;  // a known (p = 0) neighbour
+        if (j == i) has_self = true;
+      }
+      if (!has_self) e.emplace_back(i, 0.0);  // every row has its diagonal entry (pattern of A)
+      std::stable_sort(e.begin(), e.end(), [](const auto& u, const auto& v) { return u.first < v.first; });
       dirichlet_[static_cast<std::size_t>(r)] = dir;
     });
-    // CSR: unknown columns kept, known (surface, p = 0) dropped.
+    // CSR: unknown columns kept (particle order = unknown order), known (surface, p = 0) dropped.
     std::vector<std::ptrdiff_t> outer(static_cast<std::size_t>(m + 1), 0);
     for (index_t r = 0; r < m; ++r) {
-      std::ptrdiff_t cnt = 1;
-      for (const auto& [j, a] : rows[static_cast<std::size_t>(r)].columns())
+      std::ptrdiff_t cnt = 0;
+      for (const auto& [j, a] : entries[static_cast<std::size_t>(r)])
         if (unk_[static_cast<std::size_t>(j)] != npos) ++cnt;
       outer[static_cast<std::size_t>(r + 1)] = outer[static_cast<std::size_t>(r)] + cnt;
     }
@@ -534,25 +636,13 @@ class lsmps_semi_implicit {
     std::ptrdiff_t* inner = A_.innerIndexPtr();
     double* val = A_.valuePtr();
     for_each_particle(exec::par{}, m, [&](index_t r) {
-      const auto& row = rows[static_cast<std::size_t>(r)];
       std::ptrdiff_t at = outer[static_cast<std::size_t>(r)];
-      bool diag_done = false;
-      for (const auto& [j, a] : row.columns()) {
+      for (const auto& [j, a] : entries[static_cast<std::size_t>(r)]) {
         const index_t cj = unk_[static_cast<std::size_t>(j)];
         if (cj == npos) continue;
-        if (!diag_done && cj > r) {
-          inner[at] = r;
-          val[at++] = row.diagonal();
-          diag_done = true;
-        }
         inner[at] = cj;
         val[at++] = a;
       }
-      if (!diag_done) {
-        inner[at] = r;
-        val[at++] = row.diagonal();
-      }
-      // columns are sorted by particle index and unknown numbering is monotone in it: the row is sorted.
     });
     pin_floating_parts();
 

@@ -62,13 +62,13 @@ enum class geometric_step : std::uint8_t {
   no_neighbour = 3,    ///< zero normal and no participating neighbour within α_θ L_i: surface
 };
 
-/// The counts behind one decision.
 /// The scene policy naming this detection (`using surface = mpskit::surface::geometric_detector;`), run by
 /// scheme::lsmps_semi_implicit (normals, then geometric(), copies inheriting their parent's flag).
 struct geometric_detector final {
   using params_type = geometric_params;
 };
 
+/// The counts behind one decision.
 template <int D>
 struct geometric_result {
   geometric_step step = geometric_step::inside;  ///< the deciding step
@@ -87,6 +87,10 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L,
                                  const vec<D>& ni, const geometric_params& p, index_t i) {
   const search::support<search::per_particle_radius> s{{&L, p.alpha_theta}, p.radius};
   const double cos1 = std::cos(p.theta1), cos2 = std::cos(p.theta2);
+  // A neighbour exactly on the cone's edge counts as inside (relative 1e-12): on a lattice in a 90° corner
+  // both wall copies of the corner particle lie at exactly θ1 = π/4 from its normal, and the strict
+  // inequality of eq. 88 then flagged the corner particle as free surface (p = 0 inside the fluid).
+  const double cos1t = cos1 - 1e-12;
   geometric_result<D> out;
   if (ni.squaredNorm() == 0.0) {  // zero normal: inside unless alone (reading in the file comment)
     index_t count = 0;
@@ -109,7 +113,7 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L,
     if (!participates(j)) return;
     const double r = std::sqrt(r2);
     const double c = ni.dot(d);
-    out.n_theta += c > r * cos1 ? 1 : 0;
+    out.n_theta += c > r * cos1t ? 1 : 0;
     if (c > r * cos2) msum += d;
     if (kept < keep) {
       for (int a = 0; a < D; ++a) kd[kept][a] = d[a];
@@ -131,12 +135,12 @@ geometric_result<D> geometric_of(const points<D>& x, const Eigen::VectorXd& L,
     for (int q = 0; q < kept; ++q) {
       double c = 0.0;
       for (int a = 0; a < D; ++a) c += out.n_prime[a] * kd[q][a];
-      out.n_theta_prime += c > kr[q] * cos1 ? 1 : 0;  // eq. 89
+      out.n_theta_prime += c > kr[q] * cos1t ? 1 : 0;  // eq. 89
     }
   } else {
     nl.for_each_neighbour(x, i, s, [&](index_t j, const vec<D>& d, double r2) {
       if (!participates(j)) return;
-      out.n_theta_prime += out.n_prime.dot(d) > std::sqrt(r2) * cos1 ? 1 : 0;  // eq. 89
+      out.n_theta_prime += out.n_prime.dot(d) > std::sqrt(r2) * cos1t ? 1 : 0;  // eq. 89
     });
   }
   if (out.n_theta_prime == 0) out.step = geometric_step::reflected_cone;
