@@ -13,18 +13,22 @@
 ///     visibility when the scene has walls.
 ///  4. Packing ratio c (eqs. 32–40, least-squares form); isolated fluid: c < α_c (§4.6); isolated
 ///     particles are excluded from every operator, the PPE and shifting and move ballistically.
-///  5. Normals (eq. 31, outward) and free-surface flags (§4.6, both cone tests) on real fluid; a copy
-///     inherits its parent's flag.
-///  6. LSMPS type A moments at x^k; copies carry the Neumann constraint (eqs. 85–86).
+///  5. Normals (eq. 31, outward) and free-surface flags (§4.6, both cone tests, the wall counted as a
+///     neighbour: a deviation, see wall_blocks_cone) on real fluid; a copy inherits its parent's flag.
+///  6. LSMPS type A moments at x^k; with copy_row = constrained_poisson copies carry the Neumann
+///     constraint (eqs. 85–86).
 ///  7. Explicit prediction u′ = u + Δt (ν ∇²u + g) (eq. 13), copies holding the wall velocity (no-slip,
 ///     §4.5.1 last paragraph).
 ///  8. PPE (1/ρ) Σ cof(A)_ab ∂_a∂_b p = (det A − c′)/Δt² (eq. 63 and its 3D form, ppe/det_f.hpp), A = I +
-///     Δt ∇u′ at x^k (eq. 60). Unknowns: non-surface, non-isolated fluid and the copies of such particles;
-///     surface fluid and their copies are Dirichlet p = 0. The row at a copy is the same equation built
-///     with the Neumann-constrained operator, the wall condition (1/ρ) ∂p/∂n = (u′_w − u_wall)·n/Δt (eq.
-///     83) entering through the constraint's right-hand side (eq. 87); u′_w is the neighbour average of
-///     the fluid's u′ (§4.5.1: "averaging the velocities of neighbouring particles is recommended").
-///     Parts with no Dirichlet row (periodic boxes) are pinned at their lowest-id particle and counted.
+///     Δt ∇u′ at x^k (eq. 60), copies carrying u′_w in ∇u′. Unknowns: non-surface, non-isolated fluid and
+///     the copies of non-isolated particles; surface fluid is Dirichlet p = 0. The row at a copy k of
+///     parent i (params.copy_row, docs/solver.md "Wall rows"): by default (1/ρ) n_k·⟨∇p⟩_i = (u′_i −
+///     u_wall)·n_k/Δt, i.e. the wall condition of eq. 83 imposed through the parent's own gradient stencil so
+///     that the parent's corrected normal velocity vanishes (a deviation: the paper's form, the det F
+///     equation with the Neumann-constrained operator of eqs. 85–87, and eq. 83 at the copy both let an
+///     odd-even mode along the wall grow by ≈ 6 % per step, measured); the paper's forms are options.
+///     Parts with no Dirichlet row (periodic boxes) are pinned at their lowest-id particle after making the
+///     right-hand side compatible with the left null vector, and counted.
 ///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16).
 /// 10. Shifting (eqs. 93–100) with δu = ∇u δx (eq. 91), if the scene names it.
 /// 11. Wall-crossing guard (a documented deviation), periodic wrap, NaN/inf check.
@@ -33,6 +37,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <string>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -393,6 +398,12 @@ class lsmps_semi_implicit {
     return p;
   }
   static double diameter_of_volume(double v) { return D == 2 ? std::sqrt(v) : std::cbrt(v); }
+  /// "particle i (id …)" or "imaginary copy i of particle p (id …)" for error messages.
+  std::string describe(index_t i) const {
+    if (i < s_.n_real()) return mpskit::detail::concat("particle ", i, " (id ", id_of(i), ")");
+    const index_t par = parent(i);
+    return mpskit::detail::concat("imaginary copy ", i, " of particle ", par, " (id ", id_of(par), ")");
+  }
   kind kind_of(index_t i) const { return s_.kinds()[static_cast<std::size_t>(i)]; }
   particle_id id_of(index_t i) const { return s_.ids()[static_cast<std::size_t>(i)]; }
   index_t parent(index_t k) const { return s_.template get<field::parent>()[static_cast<std::size_t>(k)]; }
@@ -659,8 +670,7 @@ class lsmps_semi_implicit {
       res.cwiseAbs().maxCoeff(&worst);
       fail("PPE: solver did not converge at step ", c_.steps, ", t = ", t_, " s: relative residual ",
            last_solve_.residual, " after ", last_solve_.iterations, " iterations (tolerance ", p_.solver.tolerance,
-           ", cap ", p_.solver.max_iterations, "); largest residual at particle ",
-           rows_[static_cast<std::size_t>(worst)], " (id ", id_of(rows_[static_cast<std::size_t>(worst)]), ")");
+           ", cap ", p_.solver.max_iterations, "); largest residual at ", describe(rows_[static_cast<std::size_t>(worst)]));
     }
     for (index_t r = 0; r < m; ++r) {
       double v = sol[r];
