@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "mpskit/core/dimension.hpp"
+#include "mpskit/core/error.hpp"
 
 /// Full unrolling of the short fixed-trip loops of moments and factors (GCC at -O2 leaves them rolled and
 /// keeps the accumulators in memory: measured 1.9× more instructions for the 2D order-2 moments).
@@ -225,6 +226,10 @@ pivot_result ldlt_pivoted(Mat& A, int n, double tol) {
 template <int N = 0, class Mat, class Out>
 void ldlt_inverse(const Mat& F, int n, Out& out) {
   if constexpr (N > 0) n = N;
+  // n ≤ 19 (the largest basis, 3D order 3); the bound is stated for the optimiser: without it GCC 12 at
+  // -O2 -DNDEBUG warns (-Warray-bounds) that y[20] may be indexed past its end.
+  MPSKIT_ASSERT(n <= 20);
+  if (n > 20) n = 20;
   out.setZero();
   // Column by column: solve L y = e_c, then D z = y, then Lᵀ x = z.
   MPSKIT_UNROLL
