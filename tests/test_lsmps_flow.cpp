@@ -3,7 +3,9 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <type_traits>
 
 #include "cases/hydrostatic_polygon.hpp"
 #include "cases/taylor_green.hpp"
@@ -208,5 +210,82 @@ TEST_SUITE("lsmps_threads") {
 #else
     MESSAGE("built without OpenMP: nothing to compare");
 #endif
+  }
+}
+
+TEST_SUITE("det_f") {
+  // Compile-time refusal (Tanaka §4.3: eq. 63 needs every second derivative separately).
+  static_assert(!ppe::SecondDerivativeOperator<op::mps<2, kernel::quadratic>>, "classic MPS must be refused");
+  static_assert(!ppe::SecondDerivativeOperator<op::lsmps_a<2, 1>>, "LSMPS order 1 must be refused");
+  static_assert(ppe::SecondDerivativeOperator<op::lsmps_a<2, 2>> && ppe::SecondDerivativeOperator<op::lsmps_a<3, 3>>);
+
+  TEST_CASE("c' of eq. 62: 1 inside [c_min, c_max], linear outside, limited to [c'_min, c'_max]") {
+    const ppe::det_f s;  // c_min 0.95, c_max 1.2, c'_min 0.999, c'_max 1.001 (Tanaka Table 2)
+    CHECK(s.volume_ratio(0.95) == 1.0);
+    CHECK(s.volume_ratio(1.0) == 1.0);
+    CHECK(s.volume_ratio(1.2) == 1.0);
+    CHECK(s.volume_ratio(0.9496) == doctest::Approx(0.9996).epsilon(1e-12));  // c − c_min + 1
+    CHECK(s.volume_ratio(0.5) == 0.999);                                        // limited
+    CHECK(s.volume_ratio(1.2004) == doctest::Approx(1.0004).epsilon(1e-12));
+    CHECK(s.volume_ratio(3.0) == 1.001);
+    ppe::det_f_params bad;
+    bad.c_max = 0.9;
+    CHECK_THROWS_WITH_AS(ppe::det_f{bad}, doctest::Contains("c_max"), mpskit::error);
+  }
+
+  TEST_CASE("cofactor: cof(A)^T A = det(A) I, and Jacobi's formula d det = cof : dA (2D and 3D)") {
+    // Seeded pseudo-random matrices near I (the regime of A = I + Δt ∇u′).
+    std::uint64_t seed = 12345;
+    const auto rnd = [&]() {
+      seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+      return double(seed >> 11) / double(1ULL << 53) - 0.5;
+    };
+    const auto check = [&](auto dim) {
+      constexpr int D = decltype(dim)::value;
+      for (int trial = 0; trial < 20; ++trial) {
+        mat<D> A = mat<D>::Identity(), dA;
+        for (int a = 0; a < D; ++a)
+          for (int b = 0; b < D; ++b) {
+            A(a, b) += 0.3 * rnd();
+            dA(a, b) = rnd();
+          }
+        const mat<D> C = ppe::det_f::cofactor<D>(A);
+        const double det = ppe::det_f::determinant<D>(A);
+        // Exact identity; rounding only (entries O(1)).
+        CHECK(((C.transpose() * A - det * mat<D>::Identity()).cwiseAbs().maxCoeff()) <= 1e-14);
+        // Jacobi's formula: (det(A + ε dA) − det(A − ε dA)) / 2ε = cof(A):dA + O(ε²); ε = 1e-4 → error ~1e-8.
+        const double eps = 1e-4;
+        const double fd = (ppe::det_f::determinant<D>(A + eps * dA) - ppe::det_f::determinant<D>(A - eps * dA)) / (2 * eps);
+        CHECK(std::abs(fd - (C.array() * dA.array()).sum()) <= 1e-7);
+      }
+    };
+    check(std::integral_constant<int, 2>{});
+    check(std::integral_constant<int, 3>{});
+  }
+
+  TEST_CASE("selector: the 2D combination is eq. 63 term by term; 3D uses the symmetric part of cof(A)") {
+    using op2 = op::lsmps_a<2, 2>;
+    mat<2> A;
+    A << 1.1, 0.2, -0.3, 0.9;
+    const double rho = 1000.0;
+    const op2::vector s = ppe::det_f::selector<op2, 2>(A, rho);
+    // Eq. 63: (1/ρ)(a22 ∂xx − (a12 + a21) ∂xy + a11 ∂yy).
+    CHECK(s[op2::derivative_index(2, 0)] == doctest::Approx(0.9 / rho));
+    CHECK(s[op2::derivative_index(1, 1)] == doctest::Approx(-(0.2 - 0.3) / rho));
+    CHECK(s[op2::derivative_index(0, 2)] == doctest::Approx(1.1 / rho));
+    CHECK(s[op2::derivative_index(1, 0)] == 0.0);
+    CHECK(s[op2::derivative_index(0, 1)] == 0.0);
+    using op3 = op::lsmps_a<3, 2>;
+    mat<3> B;
+    B << 1.0, 0.1, 0.2, -0.1, 1.2, 0.05, 0.3, -0.2, 0.8;
+    const op3::vector t = ppe::det_f::selector<op3, 3>(B, 1.0);
+    const mat<3> C = ppe::det_f::cofactor<3>(B);
+    CHECK(t[op3::derivative_index(2, 0, 0)] == doctest::Approx(C(0, 0)));
+    CHECK(t[op3::derivative_index(0, 0, 2)] == doctest::Approx(C(2, 2)));
+    CHECK(t[op3::derivative_index(1, 1, 0)] == doctest::Approx(C(0, 1) + C(1, 0)));
+    CHECK(t[op3::derivative_index(0, 1, 1)] == doctest::Approx(C(1, 2) + C(2, 1)));
+    // With A = I the operator is the Laplacian / ρ.
+    const op3::vector l = ppe::det_f::selector<op3, 3>(mat<3>::Identity(), 2.0);
+    CHECK((l - op3::laplacian_selector() / 2.0).cwiseAbs().maxCoeff() <= 1e-15);
   }
 }
