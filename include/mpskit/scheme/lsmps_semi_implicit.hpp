@@ -573,6 +573,21 @@ class lsmps_semi_implicit {
     const index_t m = static_cast<index_t>(rows_.size());
     if (m == 0) return;
 
+    // Near the free surface the packing ratio measures the void above, not a compression: the row below
+    // the surface of a lattice at rest has c = 0.90 < c_min, so eq. 62 compressed it every step (measured:
+    // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle closer
+    // than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
+    near_surface_.assign(static_cast<std::size_t>(nt), 0);
+    if constexpr (has_surface) {
+      for_each_particle(exec::par{}, n, [&](index_t i) {
+        const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
+        bool near = false;
+        nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
+          if (j < n && surface_[static_cast<std::size_t>(j)] && r2 < reach * reach) near = true;
+        });
+        near_surface_[static_cast<std::size_t>(i)] = near;
+      });
+    }
     // ∇u′ at every row: copies carry the extrapolated u′ (default) or the wall velocity.
     for (int a = 0; a < D; ++a) {
       comp_[a] = ut_.row(a).transpose();
@@ -610,7 +625,8 @@ class lsmps_semi_implicit {
         const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
         row.reset(i);
         op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
-        const double c_i = i < n ? c_pack_[i] : 1.0;  // copies: no volume correction of their own
+        // Copies have no volume correction of their own; nor do particles near the free surface (below).
+        const double c_i = i < n && !near_surface_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
         b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
       }
       auto& e = entries[static_cast<std::size_t>(r)];
@@ -782,7 +798,7 @@ class lsmps_semi_implicit {
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, dx_;
-  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_;
+  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, near_surface_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
   ppe::matrix A_;
