@@ -365,12 +365,8 @@ class lsmps_semi_implicit {
     for_each_particle(exec::par{}, n, [&](index_t i) { s_.x().col(i) += dt * s_.u().col(i) + dx_shift(i); });
     // 11. Guard, wrap, checks.
     if constexpr (has_walls) {
-      points<D> xr = s_.x().leftCols(n), ur = s_.u().leftCols(n);
-      std::vector<flag::type> fr(flags.begin(), flags.begin() + n);
-      c_.guarded += wall::guard_crossings(xold_, xr, ur, L_.head(n).eval(), n, *walls_, p_.guard, &fr);
-      s_.x().leftCols(n) = xr;
-      s_.u().leftCols(n) = ur;
-      std::copy(fr.begin(), fr.end(), flags.begin());
+      // The guard reads and writes the first n columns only (the copies behind them are left as they are).
+      c_.guarded += wall::guard_crossings(exec::par{}, xold_, s_.x(), s_.u(), L_, n, *walls_, p_.guard, &flags);
     }
     if (p_.domain.any_periodic())
       for (index_t i = 0; i < n; ++i) s_.x().col(i) = p_.domain.wrap(s_.x().col(i));
@@ -599,12 +595,13 @@ class lsmps_semi_implicit {
     for (index_t k = n; k < nt; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
 
     // Each row as (particle column, coefficient) entries, sorted by particle, plus its right-hand side.
-    std::vector<std::vector<std::pair<index_t, double>>> entries(static_cast<std::size_t>(m));
+    // Each row in a reused row_entries (capacity kept across steps), merged and sorted by particle.
+    if (static_cast<index_t>(row_buf_.size()) < m) row_buf_.resize(static_cast<std::size_t>(m));
     b_.resize(m);
     dirichlet_.assign(static_cast<std::size_t>(m), 0);
     for_each_particle(exec::par{}, m, [&](index_t r) {
       const index_t i = rows_[static_cast<std::size_t>(r)];
-      op::row_entries row;
+      op::row_entries& row = row_buf_[static_cast<std::size_t>(r)];
       if (i >= n && p_.copy_row == copy_row_kind::parent_gradient) {
         // The copy's unknown makes its parent's corrected normal velocity vanish (a deviation, docs/solver.md):
         // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
@@ -629,32 +626,20 @@ class lsmps_semi_implicit {
         const double c_i = i < n && !near_surface_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
         b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
       }
-      auto& e = entries[static_cast<std::size_t>(r)];
-      e.clear();
-      for (const auto& [j, a] : row.columns()) e.emplace_back(j, a);
-      e.emplace_back(row.row(), row.diagonal());
-      std::stable_sort(e.begin(), e.end(), [](const auto& u, const auto& v) { return u.first < v.first; });
-      std::size_t out = 0;  // merge repeated columns
-      for (std::size_t q = 0; q < e.size(); ++q) {
-        if (out > 0 && e[out - 1].first == e[q].first) e[out - 1].second += e[q].second;
-        else e[out++] = e[q];
-      }
-      e.resize(out);
-      bool dir = false, has_self = false;
-      for (const auto& [j, a] : e) {
+      row.merge();
+      bool dir = false;
+      for_each_entry(row, i, [&](index_t j, double a) {
         if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) dir = true;  // a known (p = 0) neighbour
-        if (j == i) has_self = true;
-      }
-      if (!has_self) e.emplace_back(i, 0.0);  // every row has its diagonal entry (pattern of A)
-      std::stable_sort(e.begin(), e.end(), [](const auto& u, const auto& v) { return u.first < v.first; });
+      });
       dirichlet_[static_cast<std::size_t>(r)] = dir;
     });
     // CSR: unknown columns kept (particle order = unknown order), known (surface, p = 0) dropped.
     std::vector<std::ptrdiff_t> outer(static_cast<std::size_t>(m + 1), 0);
     for (index_t r = 0; r < m; ++r) {
       std::ptrdiff_t cnt = 0;
-      for (const auto& [j, a] : entries[static_cast<std::size_t>(r)])
+      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)], [&](index_t j, double) {
         if (unk_[static_cast<std::size_t>(j)] != npos) ++cnt;
+      });
       outer[static_cast<std::size_t>(r + 1)] = outer[static_cast<std::size_t>(r)] + cnt;
     }
     A_.resize(m, m);
@@ -664,12 +649,12 @@ class lsmps_semi_implicit {
     double* val = A_.valuePtr();
     for_each_particle(exec::par{}, m, [&](index_t r) {
       std::ptrdiff_t at = outer[static_cast<std::size_t>(r)];
-      for (const auto& [j, a] : entries[static_cast<std::size_t>(r)]) {
+      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)], [&](index_t j, double a) {
         const index_t cj = unk_[static_cast<std::size_t>(j)];
-        if (cj == npos) continue;
+        if (cj == npos) return;
         inner[at] = cj;
         val[at++] = a;
-      }
+      });
     });
     pin_floating_parts();
 
@@ -696,6 +681,34 @@ class lsmps_semi_implicit {
       }
       pres[rows_[static_cast<std::size_t>(r)]] = v;
     }
+  }
+
+  /// Calls f(j, a) over a merged row in increasing particle order: its columns with the coefficient of the
+  /// row particle (row.row(), the diagonal) in place, and a zero at `self` when the row has no entry there
+  /// (a copy's parent-gradient row is built at its parent: the copy's own column is then a neighbour
+  /// entry, and the matrix must hold every diagonal).
+  template <class F>
+  static void for_each_entry(const op::row_entries& row, index_t self, F&& f) {
+    const index_t d = row.row();
+    bool diag_done = false, self_done = false;
+    const auto emit = [&](index_t j, double a) {
+      self_done |= j == self;
+      f(j, a);
+    };
+    for (const auto& [j, a] : row.columns()) {
+      if (!diag_done && d < j) {
+        if (!self_done && self < d) emit(self, 0.0);
+        emit(d, row.diagonal());
+        diag_done = true;
+      }
+      if (!self_done && self < j && self != d) emit(self, 0.0);
+      emit(j, a);
+    }
+    if (!diag_done) {
+      if (!self_done && self < d) emit(self, 0.0);
+      emit(d, row.diagonal());
+    }
+    if (!self_done) emit(self, 0.0);
   }
 
   /// Parts of the unknowns' graph with no Dirichlet neighbour (periodic boxes) are singular: p is defined up
@@ -801,6 +814,7 @@ class lsmps_semi_implicit {
   std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, near_surface_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
+  std::vector<op::row_entries> row_buf_;  ///< PPE rows of the step (reused: capacity kept)
   ppe::matrix A_;
   Eigen::VectorXd b_;
   ppe::solve_report last_solve_{};
