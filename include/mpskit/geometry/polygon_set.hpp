@@ -243,25 +243,7 @@ class polygon_set final {
   /// First element met moving from a to b (smallest t; ties to the lower element), with the crossing
   /// point, the element's fluid-side normal and whether the move enters the wall (wall-crossing guard).
   std::optional<crossing<D>> first_crossing(const vec<D>& a, const vec<D>& b) const {
-    const vec<D> d = b - a;
-    double best_t = std::numeric_limits<double>::infinity();
-    index_t best_e = npos;
-    hierarchy_.segment(a, d, [&](index_t e) {
-      const double t = detail::segment_hits_element<D>(a, b, element(e));
-      if (t >= 0.0 && (t < best_t || (t == best_t && e < best_e))) {
-        best_t = t;
-        best_e = e;
-      }
-      return false;
-    });
-    if (best_e == npos) return std::nullopt;
-    crossing<D> c;
-    c.t = best_t;
-    c.point = a + best_t * d;
-    c.element = best_e;
-    c.normal = normals_.col(best_e);
-    c.entering = d.dot(c.normal) < 0.0;
-    return c;
+    return first_hit(a, b, false);
   }
 
   /// First crossing of a move a → b while the set itself moved rigidly from `previous_pose` to the
@@ -320,26 +302,7 @@ class polygon_set final {
   /// entering one; with a double-sided thin wall (two coincident elements of opposite orientation)
   /// every crossing enters one of the two (wall-crossing guard, docs/walls.md).
   std::optional<crossing<D>> first_entering_crossing(const vec<D>& a, const vec<D>& b) const {
-    const vec<D> d = b - a;
-    double best_t = std::numeric_limits<double>::infinity();
-    index_t best_e = npos;
-    hierarchy_.segment(a, d, [&](index_t e) {
-      if (!(d.dot(normals_.col(e)) < 0.0)) return false;
-      const double t = detail::segment_hits_element<D>(a, b, element(e));
-      if (t >= 0.0 && (t < best_t || (t == best_t && e < best_e))) {
-        best_t = t;
-        best_e = e;
-      }
-      return false;
-    });
-    if (best_e == npos) return std::nullopt;
-    crossing<D> c;
-    c.t = best_t;
-    c.point = a + best_t * d;
-    c.element = best_e;
-    c.normal = normals_.col(best_e);
-    c.entering = true;
-    return c;
+    return first_hit(a, b, true);
   }
 
   /// first_entering_crossing for a set that moved rigidly from `previous_pose` to the current pose:
@@ -369,6 +332,31 @@ class polygon_set final {
  private:
   static constexpr double tie_tol = 1e-12;
   static constexpr double tiny2 = 1e-300;
+
+  /// The element the closed segment a→b meets first (smallest t, ties to the lower element); with
+  /// entering_only, elements the move leaves (d·n ≥ 0) are skipped.
+  std::optional<crossing<D>> first_hit(const vec<D>& a, const vec<D>& b, bool entering_only) const {
+    const vec<D> d = b - a;
+    double best_t = std::numeric_limits<double>::infinity();
+    index_t best_e = npos;
+    hierarchy_.segment(a, d, [&](index_t e) {
+      if (entering_only && !(d.dot(normals_.col(e)) < 0.0)) return false;
+      const double t = detail::segment_hits_element<D>(a, b, element(e));
+      if (t >= 0.0 && (t < best_t || (t == best_t && e < best_e))) {
+        best_t = t;
+        best_e = e;
+      }
+      return false;
+    });
+    if (best_e == npos) return std::nullopt;
+    crossing<D> c;
+    c.t = best_t;
+    c.point = a + best_t * d;
+    c.element = best_e;
+    c.normal = normals_.col(best_e);
+    c.entering = d.dot(c.normal) < 0.0;
+    return c;
+  }
 
   void consider(const vec<D>& x, index_t e, closest_point<D>& best, double& best2) const {
     const detail::element_closest<D> c = detail::closest_on_element<D>(x, element(e));
