@@ -435,7 +435,7 @@ TEST_SUITE("tanaka_shift") {
     shift_case<2> c(lattice<2>(6, 6, 0.0, rng));
     c.build();
     c.L[3] = 0.0;
-    CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("L[3]"), mpskit::error);
+    CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("particle 3 has diameter L"), mpskit::error);
     c.L[3] = L0;
     c.grad_c.resize(2, 5);
     CHECK_THROWS_WITH_AS(c.run(), doctest::Contains("grad_c"), mpskit::error);

@@ -4,6 +4,7 @@
 /// each bad value gets its own line naming the parameter, its value and the accepted range
 /// (ARCHITECTURE.md §2, §6). Nothing is clamped.
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -66,5 +67,14 @@ class validator {
   std::string what_;
   std::vector<std::string> problems_;
 };
+
+/// Throws mpskit::error naming the first of the particles [0, n) whose diameter L[i] is not a finite
+/// number > 0 (`who` prefixes the message). Called before a parallel loop: nothing may throw inside one.
+template <class Sizes>
+void check_diameters(std::string_view who, const Sizes& L, std::int64_t n) {
+  for (std::int64_t i = 0; i < n; ++i)
+    if (!(std::isfinite(L[i]) && L[i] > 0.0))
+      fail(who, ": particle ", i, " has diameter L = ", L[i], ", accepted range (0, inf)");
+}
 
 }  // namespace mpskit

@@ -127,9 +127,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     fail("tanaka_shift: n_wall has ", n_wall->cols(), " columns, need >= active.size() = ", m);
   if (static_cast<index_t>(tangential_only.size()) < m)
     fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
-  for (index_t i = 0; i < rows; ++i)
-    if (!(std::isfinite(L[i]) && L[i] > 0.0))
-      fail("tanaka_shift: L[", i, "] = ", L[i], ": must be a finite number > 0");
+  check_diameters("tanaka_shift", L, rows);
 
   const search::support<search::per_particle_radius> sup{search::per_particle_radius{&L, p.re_ratio},
                                                          search::radius_rule::pair_mean};

@@ -164,9 +164,7 @@ void geometric(E e, const points<D>& x, const Eigen::VectorXd& L, const search::
   if (n.cols() != np) fail("geometric: n has ", n.cols(), " columns for ", np, " particles");
   if (nl.rows() != np)
     fail("geometric: the neighbour list has ", nl.rows(), " rows for ", np, " particles (rebuild it)");
-  for (index_t i = 0; i < np; ++i)  // checked before the loop: nothing may throw inside a parallel region
-    if (!(std::isfinite(L[i]) && L[i] > 0.0))
-      fail("geometric: diameter L of particle ", i, " is ", L[i], "; must be a finite number > 0");
+  check_diameters("geometric", L, np);
   if (static_cast<index_t>(surface.size()) != np) surface.assign(static_cast<std::size_t>(np), 0);
   for_each_particle(e, np, [&](index_t i) {
     if (!wanted(i)) return;

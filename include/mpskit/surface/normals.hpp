@@ -121,9 +121,7 @@ void normals(E e, const points<D>& x, const Eigen::VectorXd& L, const search::ne
   if (nl.rows() != np)
     fail("normals: the neighbour list has ", nl.rows(), " rows for ", np, " particles (rebuild it)");
   if (n.cols() != np) n.setZero(D, np);
-  for (index_t i = 0; i < np; ++i)  // checked before the loop: nothing may throw inside a parallel region
-    if (!(std::isfinite(L[i]) && L[i] > 0.0))
-      fail("normals: diameter L of particle ", i, " is ", L[i], "; must be a finite number > 0");
+  check_diameters("normals", L, np);
   if (static_cast<index_t>(degenerate.size()) != np) degenerate.assign(static_cast<std::size_t>(np), 0);
   for_each_particle(e, np, [&](index_t i) {
     if (!wanted(i)) return;

@@ -156,9 +156,7 @@ void packing_ratio(E e, const points<D>& x, const Eigen::VectorXd& L, const sear
   if (L.size() != n) fail("packing_ratio: L has ", L.size(), " entries for ", n, " particles");
   if (nl.rows() != n)
     fail("packing_ratio: the neighbour list has ", nl.rows(), " rows for ", n, " particles (rebuild it)");
-  for (index_t i = 0; i < n; ++i)
-    if (!(std::isfinite(L[i]) && L[i] > 0.0))
-      fail("packing_ratio: diameter L of particle ", i, " is ", L[i], "; must be a finite number > 0");
+  check_diameters("packing_ratio", L, n);
   c.resize(n);
   for_each_particle(e, n,
                     [&](index_t i) { c[i] = packing_ratio_of<D>(x, L, nl, participates, is_wall, p, i); });

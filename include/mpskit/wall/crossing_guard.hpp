@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mpskit/core/dimension.hpp"
+#include "mpskit/core/params.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/exec.hpp"
 #include "mpskit/core/kinds.hpp"
@@ -69,9 +70,7 @@ index_t guard_crossings(E e, const points<D>& x_old, points<D>& x_new, points<D>
     fail("wall::guard_crossings: flags has ", flags->size(), " entries for n = ", n, " particles");
   if (poses && static_cast<index_t>(poses->size()) != sets.size())
     fail("wall::guard_crossings: ", poses->size(), " previous poses for ", sets.size(), " polygon sets");
-  for (index_t i = 0; i < n; ++i)
-    if (!(std::isfinite(L[i]) && L[i] > 0.0))
-      fail("wall::guard_crossings: particle ", i, " has diameter L = ", L[i], ", accepted range (0, inf)");
+  check_diameters("wall::guard_crossings", L, n);
   std::vector<char> hit(static_cast<std::size_t>(n), 0);
   for_each_particle(e, n, [&](index_t i) {
     vec<D> a = x_old.col(i);
