@@ -59,6 +59,7 @@
 #include "mpskit/ppe/concepts.hpp"
 #include "mpskit/ppe/det_f.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
+#include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"
@@ -722,49 +723,20 @@ class lsmps_semi_implicit {
   ///  3. the pinned row replaced by p_pin = 0 (lowest-id particle). The solution then satisfies every row.
   /// Counted in pinned_components.
   void pin_floating_parts() {
-    const index_t m = A_.rows();
-    std::vector<index_t> comp(static_cast<std::size_t>(m), npos);
-    std::vector<index_t> stack, members;
-    std::vector<std::pair<index_t, std::vector<index_t>>> floating;  // (pin, members)
-    const ppe::matrix At = A_.transpose();  // connectivity of A + Aᵀ (A is not symmetric)
-    for (index_t r0 = 0; r0 < m; ++r0) {
-      if (comp[static_cast<std::size_t>(r0)] != npos) continue;
-      bool has_dirichlet = false;
-      index_t pin = r0;
-      stack.assign(1, r0);
-      members.clear();
-      comp[static_cast<std::size_t>(r0)] = r0;
-      while (!stack.empty()) {
-        const index_t r = stack.back();
-        stack.pop_back();
-        members.push_back(r);
-        has_dirichlet |= dirichlet_[static_cast<std::size_t>(r)] != 0;
-        if (id_of(rows_[static_cast<std::size_t>(r)]) < id_of(rows_[static_cast<std::size_t>(pin)])) pin = r;
-        const auto visit = [&](const ppe::matrix& M) {
-          for (ppe::matrix::InnerIterator it(M, r); it; ++it) {
-            const index_t c = it.index();
-            if (comp[static_cast<std::size_t>(c)] == npos) {
-              comp[static_cast<std::size_t>(c)] = r0;
-              stack.push_back(c);
-            }
-          }
-        };
-        visit(A_);
-        visit(At);
-      }
-      if (!has_dirichlet) floating.emplace_back(pin, members);
-    }
+    const auto floating = ppe::find_floating_parts(A_, dirichlet_, false,
+                                                   [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
     if (floating.empty()) return;
+    const index_t m = A_.rows();
     c_.pinned_components += static_cast<long>(floating.size());
     // 1. Left null vectors: B = Aᵀ, rows outside floating parts → y = 0, pinned rows → y = 1.
-    ppe::matrix B = At;
+    ppe::matrix B = A_.transpose();
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(m), y = Eigen::VectorXd::Zero(m);
     std::vector<std::uint8_t> keep(static_cast<std::size_t>(m), 0);
-    for (const auto& [pin, mem] : floating)
-      for (index_t r : mem) keep[static_cast<std::size_t>(r)] = 1;
-    for (const auto& [pin, mem] : floating) {
-      keep[static_cast<std::size_t>(pin)] = 0;
-      rhs[pin] = 1.0;
+    for (const ppe::floating_part& part : floating)
+      for (index_t r : part.members) keep[static_cast<std::size_t>(r)] = 1;
+    for (const ppe::floating_part& part : floating) {
+      keep[static_cast<std::size_t>(part.pin)] = 0;
+      rhs[part.pin] = 1.0;
     }
     for (index_t r = 0; r < m; ++r) {
       if (keep[static_cast<std::size_t>(r)]) continue;
@@ -779,14 +751,15 @@ class lsmps_semi_implicit {
            " s: relative residual ", rep.residual, " after ", rep.iterations, " iterations");
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
-    for (const auto& [pin, mem] : floating) {
+    for (const ppe::floating_part& part : floating) {
+      const index_t pin = part.pin;
       double yb = 0.0, yv = 0.0;
-      for (index_t r : mem) {
+      for (index_t r : part.members) {
         yb += y[r] * b_[r];
         yv += y[r] * V[rows_[static_cast<std::size_t>(r)]];
       }
       if (yv != 0.0)
-        for (index_t r : mem) b_[r] -= yb / yv * V[rows_[static_cast<std::size_t>(r)]];
+        for (index_t r : part.members) b_[r] -= yb / yv * V[rows_[static_cast<std::size_t>(r)]];
       for (ppe::matrix::InnerIterator it(A_, pin); it; ++it) it.valueRef() = it.index() == pin ? 1.0 : 0.0;
       b_[pin] = 0.0;
     }

@@ -42,6 +42,7 @@
 #include "mpskit/op/mps.hpp"
 #include "mpskit/ppe/concepts.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
+#include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/scheme/time_step.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 
@@ -545,35 +546,14 @@ class semi_implicit {
   /// Connected parts of the unknowns' graph with no Dirichlet row get p = 0 at their lowest-id
   /// particle (row and column zeroed, diagonal 1: the matrix stays symmetric). Counted.
   void pin_floating_parts() {
-    const index_t m = A_.rows();
-    std::vector<index_t> comp(static_cast<std::size_t>(m), npos);
-    std::vector<index_t> stack, members;
-    for (index_t r0 = 0; r0 < m; ++r0) {
-      if (comp[static_cast<std::size_t>(r0)] != npos) continue;
-      bool has_dirichlet = false;
-      index_t pin = r0;
-      stack.assign(1, r0);
-      members.clear();
-      comp[static_cast<std::size_t>(r0)] = r0;
-      while (!stack.empty()) {
-        const index_t r = stack.back();
-        stack.pop_back();
-        members.push_back(r);
-        has_dirichlet |= dirichlet_[static_cast<std::size_t>(r)] != 0;
-        if (id_of(rows_[static_cast<std::size_t>(r)]) < id_of(rows_[static_cast<std::size_t>(pin)])) pin = r;
-        for (matrix_type::InnerIterator it(A_, r); it; ++it) {
-          const index_t c = it.index();
-          if (comp[static_cast<std::size_t>(c)] == npos) {
-            comp[static_cast<std::size_t>(c)] = r0;
-            stack.push_back(c);
-          }
-        }
-      }
-      if (has_dirichlet) continue;
+    const auto parts = ppe::find_floating_parts(A_, dirichlet_, true,
+                                                [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
+    for (const ppe::floating_part& part : parts) {
+      const index_t pin = part.pin;
       ++c_.pinned_components;
       for (matrix_type::InnerIterator it(A_, pin); it; ++it) it.valueRef() = it.index() == pin ? 1.0 : 0.0;
       b_[pin] = 0.0;
-      for (index_t r : members) {  // only this part's rows: O(nnz) over all parts
+      for (index_t r : part.members) {  // only this part's rows: O(nnz) over all parts
         if (r == pin) continue;
         for (matrix_type::InnerIterator it(A_, r); it; ++it)
           if (it.index() == pin) it.valueRef() = 0.0;
