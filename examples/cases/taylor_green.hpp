@@ -8,6 +8,7 @@
 #include <numbers>
 #include <vector>
 
+#include "mpskit/io/probes.hpp"
 #include "mpskit/scene.hpp"
 
 namespace mpskit::cases {
@@ -74,13 +75,10 @@ struct taylor_green_result {
   index_t particles = 0;           ///< particles
 };
 
-/// Kinetic energy per unit depth, Σ ½ ρ V |u|² (J/m).
+/// Kinetic energy per unit depth, ½ Σ ρ V |u|² (J/m), from io::integrals (no gravity: the potential part is 0).
 template <class State>
 double kinetic_energy(const State& s, double rho) {
-  const auto& V = s.template get<field::volume>();
-  double e = 0.0;
-  for (index_t i = 0; i < s.n_real(); ++i) e += 0.5 * rho * V[i] * s.u().col(i).squaredNorm();
-  return e;
+  return io::integrals(s, rho, vec<2>::Zero()).kinetic_energy;
 }
 
 /// Runs the vortex with Scene (taylor_green_scene or a variant).
