@@ -10,6 +10,7 @@
 #include <benchmark/benchmark.h>
 
 #include "cases/tanaka_table1.hpp"
+#include "support/support.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -38,18 +39,7 @@ constexpr std::uint64_t seed = 20181001;
 template <int D>
 points<D> jittered_lattice(int side, double h, double jitter, std::uint64_t s) {
   std::mt19937_64 rng(s);
-  std::uniform_real_distribution<double> U(-jitter, jitter);
-  const int mz = D == 3 ? side : 1;
-  points<D> x(D, static_cast<index_t>(side) * side * mz);
-  index_t k = 0;
-  for (int c = 0; c < mz; ++c)
-    for (int b = 0; b < side; ++b)
-      for (int a = 0; a < side; ++a, ++k) {
-        x(0, k) = (a + U(rng)) * h;
-        x(1, k) = (b + U(rng)) * h;
-        if constexpr (D == 3) x(2, k) = (c + U(rng)) * h;
-      }
-  return x;
+  return mpskit::test::jittered_lattice<D>(side, h, jitter, rng);  // tests/support: one lattice for tests and benchmarks
 }
 
 /// One shared setup per dimension (n ≈ 1e5): positions, list at 3.1 l0, a smooth field.

@@ -3,6 +3,8 @@
 // Results with the flags used are recorded in docs/walls.md.
 #include <benchmark/benchmark.h>
 
+#include "support/support.hpp"
+
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -29,21 +31,13 @@ namespace {
 constexpr int m2 = 316;  // 2D: 316² ≈ 1e5 particles in the unit square
 constexpr int m3 = 46;   // 3D: 46³ ≈ 9.7e4 particles in the unit cube
 
+/// Cell-centred m^D lattice in the unit box, jittered by ±0.1 h (tests/support's lattice, shifted by h/2).
 template <int D>
 points<D> lattice(int m, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> j(-0.1, 0.1);
   const double h = 1.0 / m;
-  const int mz = D == 3 ? m : 1;
-  points<D> x(D, static_cast<index_t>(m) * m * mz);
-  index_t k = 0;
-  for (int c = 0; c < mz; ++c)
-    for (int b = 0; b < m; ++b)
-      for (int a = 0; a < m; ++a, ++k) {
-        x(0, k) = (a + 0.5 + j(rng)) * h;
-        x(1, k) = (b + 0.5 + j(rng)) * h;
-        if constexpr (D == 3) x(2, k) = (c + 0.5 + j(rng)) * h;
-      }
+  points<D> x = mpskit::test::jittered_lattice<D>(m, h, 0.1, rng);
+  x.array() += 0.5 * h;
   return x;
 }
 
