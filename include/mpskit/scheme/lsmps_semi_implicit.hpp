@@ -14,7 +14,7 @@
 ///  4. Packing ratio c (eqs. 32–40, least-squares form); isolated fluid: c < α_c (§4.6); isolated
 ///     particles are excluded from every operator, the PPE and shifting and move ballistically.
 ///  5. Normals (eq. 31, outward) and free-surface flags (§4.6, both cone tests, the wall counted as a
-///     neighbour: a deviation, see wall_blocks_cone) on real fluid; a copy inherits its parent's flag.
+///     neighbour: a deviation, see surface::wall_blocks_cone) on real fluid; a copy inherits its parent's flag.
 ///  6. LSMPS type A moments at x^k; with copy_row = constrained_poisson copies carry the Neumann
 ///     constraint (eqs. 85–86).
 ///  7. Explicit prediction u′ = u + Δt (ν ∇²u + g) (eq. 13), copies holding the wall velocity (no-slip,
@@ -298,10 +298,9 @@ class lsmps_semi_implicit {
     if constexpr (has_surface) {
       const auto wanted = [&](index_t i) { return i < n && participates(i); };
       surface::normals(exec::par{}, x, L_, nl_, participates, normal_, normal_degenerate_, wanted);
-      surface::geometric(exec::par{}, x, L_, nl_, participates, normal_, p_.surface, surface_, wanted);
+      surface::geometric(exec::par{}, x, L_, nl_, participates, normal_, p_.surface, surface_, wanted, walls_);
       for (index_t i = 0; i < n; ++i)
         if (!participates(i)) surface_[static_cast<std::size_t>(i)] = 0;
-      if constexpr (has_walls) wall_blocks_cone(n);
       for (index_t k = n; k < nt; ++k) surface_[static_cast<std::size_t>(k)] = surface_[static_cast<std::size_t>(parent(k))];
       for (index_t i = 0; i < nt; ++i)
         if (surface_[static_cast<std::size_t>(i)]) flags[static_cast<std::size_t>(i)] |= flag::surface;
@@ -407,54 +406,6 @@ class lsmps_semi_implicit {
   double re(index_t i) const { return p_.op.re_ratio * L_[i]; }
   search::support<search::per_particle_radius> support() const {
     return {search::per_particle_radius{&L_, p_.op.re_ratio}, search::radius_rule::pair_mean};
-  }
-
-  /// The wall as a neighbour of the cone tests (a deviation, docs/solver.md). Copies sample the wall only
-  /// where a fluid particle is within α_w L, so a cone can look into the solid between them: beside an
-  /// inclined wall the reflected cone (eq. 89) found the lattice's staircase gaps, and in 3D the cone of a
-  /// particle next to an edge of two walls contained neither copy; both flagged particles inside the fluid
-  /// as free surface (measured: 3 of 11 rows beside a 60° incline; 32 edge particles of a 3D box). A flag of
-  /// the second step (eq. 88) is withdrawn when the whole cone is solid: its axis and the 2(D − 1) rays on
-  /// its rim at θ1 all meet a wall within α_θ L_i (a contact-line particle, whose cone is partly open, stays
-  /// flagged); a flag of the third step (eq. 89) when n′ meets the plane of the closest wall point within
-  /// α_θ L_i.
-  void wall_blocks_cone(index_t n) {
-    const points<D>& x = s_.x();
-    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
-    const double c1 = std::cos(p_.surface.theta1), s1 = std::sin(p_.surface.theta1);
-    for_each_particle(exec::par{}, n, [&](index_t i) {
-      if (!surface_[static_cast<std::size_t>(i)]) return;
-      const double reach = p_.surface.alpha_theta * L_[i];
-      const vec<D> xi = x.col(i);
-      const auto q = walls_->query(xi, reach);
-      if (!q.found()) return;
-      const auto g = surface::geometric_of(x, L_, nl_, participates, vec<D>(normal_.col(i)), p_.surface, i);
-      if (g.step == surface::geometric_step::reflected_cone) {
-        // Third step: withdrawn when n′ meets the plane of the closest wall point within α_θ L_i.
-        const double toward = -g.n_prime.dot(q.normal);
-        if (toward > 0.0 && q.signed_distance < reach * toward) surface_[static_cast<std::size_t>(i)] = 0;
-        return;
-      }
-      if (g.step != surface::geometric_step::cone) return;
-      vec<D> axis = normal_.col(i);
-      if (!(axis.norm() > 0.0)) return;
-      axis.normalize();
-      // Two (2D) or four (3D) unit vectors perpendicular to the axis.
-      vec<D> e1 = vec<D>::Zero();
-      int k = 0;
-      for (int a = 1; a < D; ++a)
-        if (std::abs(axis[a]) < std::abs(axis[k])) k = a;
-      e1[k] = 1.0;
-      e1 -= axis.dot(e1) * axis;
-      e1.normalize();
-      const auto solid = [&](const vec<D>& dir) { return walls_->first_crossing(xi, vec<D>(xi + reach * dir)).has_value(); };
-      bool blocked = solid(axis) && solid(vec<D>(c1 * axis + s1 * e1)) && solid(vec<D>(c1 * axis - s1 * e1));
-      if constexpr (D == 3) {
-        const vec<D> e2 = axis.cross(e1);
-        blocked = blocked && solid(vec<D>(c1 * axis + s1 * e2)) && solid(vec<D>(c1 * axis - s1 * e2));
-      }
-      if (blocked) surface_[static_cast<std::size_t>(i)] = 0;
-    });
   }
 
   void sizes_from_volumes() {
