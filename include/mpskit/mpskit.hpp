@@ -51,6 +51,8 @@
 #include "mpskit/ppe/concepts.hpp"
 #include "mpskit/ppe/det_f.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
+#include "mpskit/ppe/floating_parts.hpp"
+#include "mpskit/ppe/solve.hpp"
 #include "mpskit/ppe/sources.hpp"
 #include "mpskit/scheme/lsmps_semi_implicit.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"

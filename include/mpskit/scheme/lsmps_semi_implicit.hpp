@@ -60,6 +60,7 @@
 #include "mpskit/ppe/det_f.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
 #include "mpskit/ppe/floating_parts.hpp"
+#include "mpskit/ppe/solve.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"
@@ -612,19 +613,10 @@ class lsmps_semi_implicit {
 
     Eigen::VectorXd sol(m);
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
-    if (solver_.compute(A_) != Eigen::Success)
-      fail("PPE: the preconditioner failed at step ", c_.steps, ", t = ", t_, " s (", m, " unknowns)");
-    last_solve_ = solver_.solve(b_, sol);
+    last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
+                                     [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); });
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
-    if (last_solve_.info != Eigen::Success) {
-      index_t worst = 0;
-      const Eigen::VectorXd res = A_ * sol - b_;
-      res.cwiseAbs().maxCoeff(&worst);
-      fail("PPE: solver did not converge at step ", c_.steps, ", t = ", t_, " s: relative residual ",
-           last_solve_.residual, " after ", last_solve_.iterations, " iterations (tolerance ", p_.solver.tolerance,
-           ", cap ", p_.solver.max_iterations, "); largest residual at ", describe(rows_[static_cast<std::size_t>(worst)]));
-    }
     for (index_t r = 0; r < m; ++r) {
       double v = sol[r];
       if (p_.negative == negative_pressure::clamp_to_zero && v < 0.0) {
@@ -694,12 +686,9 @@ class lsmps_semi_implicit {
       for (ppe::matrix::InnerIterator it(B, r); it; ++it) it.valueRef() = it.index() == r ? 1.0 : 0.0;
     }
     for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
-    if (adjoint_solver_.compute(B) != Eigen::Success)
-      fail("PPE: the preconditioner of the left-null-vector system failed at step ", c_.steps, ", t = ", t_, " s");
-    const ppe::solve_report rep = adjoint_solver_.solve(rhs, y);
-    if (rep.info != Eigen::Success)
-      fail("PPE: the left-null-vector solve of a floating part did not converge at step ", c_.steps, ", t = ", t_,
-           " s: relative residual ", rep.residual, " after ", rep.iterations, " iterations");
+    ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
+      return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
+    });
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {

@@ -43,6 +43,7 @@
 #include "mpskit/ppe/concepts.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
 #include "mpskit/ppe/floating_parts.hpp"
+#include "mpskit/ppe/solve.hpp"
 #include "mpskit/scheme/time_step.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 
@@ -501,20 +502,12 @@ class semi_implicit {
     // Solve with warm start.
     Eigen::VectorXd sol(m);
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
-    if (solver_.compute(A_) != Eigen::Success)
-      fail("PPE: the preconditioner failed at step ", c_.steps, ", t = ", t_, " s (", m, " unknowns)");
-    last_solve_ = solver_.solve(b_, sol);
+    last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_, [&](index_t r) {
+      const index_t i = rows_[static_cast<std::size_t>(r)];
+      return mpskit::detail::concat("particle ", i, " (id ", id_of(i), ")");
+    });
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
-    if (last_solve_.info != Eigen::Success) {
-      index_t worst = 0;
-      const Eigen::VectorXd res = A_ * sol - b_;
-      res.cwiseAbs().maxCoeff(&worst);
-      fail("PPE: solver did not converge at step ", c_.steps, ", t = ", t_, " s: relative residual ",
-           last_solve_.residual, " after ", last_solve_.iterations, " iterations (tolerance ", p_.solver.tolerance,
-           ", cap ", p_.solver.max_iterations, "); largest residual at particle ",
-           rows_[static_cast<std::size_t>(worst)], " (id ", id_of(rows_[static_cast<std::size_t>(worst)]), ")");
-    }
     long clamped = 0;
     for (index_t r = 0; r < m; ++r) {
       double v = sol[r];

@@ -1,0 +1,36 @@
+#pragma once
+/// \file ppe/solve.hpp
+/// \brief One checked PPE solve for every scheme: factorise, solve from the warm start, and turn a failed
+/// preconditioner or a non-converged solve into mpskit::error naming the step, the time, the residual,
+/// the stopping rule and the row with the largest residual (ARCHITECTURE.md §6).
+#include <string>
+
+#include <Eigen/Core>
+
+#include "mpskit/core/dimension.hpp"
+#include "mpskit/core/error.hpp"
+#include "mpskit/ppe/concepts.hpp"
+#include "mpskit/ppe/eigen_iterative.hpp"
+
+namespace mpskit::ppe {
+
+/// Solves A x = b from the x given (warm start) with `solver`; `describe(r)` names row r in a message
+/// (e.g. "particle 12 (id 40)"). Returns the solver's report; throws on failure.
+template <LinearSolver S, class Describe>
+solve_report solve_checked(S& solver, const matrix& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                           const solver_params& p, long step, double t, const Describe& describe) {
+  if (solver.compute(A) != Eigen::Success)
+    fail("PPE: the preconditioner failed at step ", step, ", t = ", t, " s (", A.rows(), " unknowns)");
+  const solve_report rep = solver.solve(b, x);
+  if (rep.info != Eigen::Success) {
+    index_t worst = 0;
+    const Eigen::VectorXd res = A * x - b;
+    res.cwiseAbs().maxCoeff(&worst);
+    fail("PPE: solver did not converge at step ", step, ", t = ", t, " s: relative residual ", rep.residual,
+         " after ", rep.iterations, " iterations (tolerance ", p.tolerance, ", cap ", p.max_iterations,
+         "); largest residual at ", std::string(describe(worst)));
+  }
+  return rep;
+}
+
+}  // namespace mpskit::ppe
