@@ -105,6 +105,13 @@ enum class copy_row_kind {
                         ///< velocity vanishes (a deviation; docs/solver.md)
 };
 
+/// The pressure operator of the det F rows (docs/lsmps_scheme.md "Stability of the projection").
+enum class pressure_operator {
+  second_derivatives,  ///< Σ_ab cof(A)_ab ∂_a∂_b p with LSMPS-A second derivatives (eqs. 59 and 63; default)
+  nested_gradient      ///< Σ_ab cof(A)_ab ∂_b⟨∇_a p⟩: the LSMPS gradient of the LSMPS gradient, eq. 58 read
+                       ///< literally (an exact discrete projection; needs a direct solver, see the docs)
+};
+
 /// Which fluid velocity u′_w enters a copy's wall condition (eq. 83).
 enum class copy_neumann_velocity {
   average,  ///< w-weighted average of the fluid neighbours' u′ (Tanaka §4.5.1's recommendation)
@@ -130,6 +137,7 @@ struct lsmps_params {
   copy_row_kind copy_row = copy_row_kind::parent_gradient;  ///< the row at a copy (docs/solver.md: the most stable measured)
   copy_neumann_velocity copy_neumann = copy_neumann_velocity::parent;  ///< u′_w in eq. 83
   copy_velocity_in_source copy_velocity = copy_velocity_in_source::extrapolated;  ///< see the enum
+  pressure_operator pressure = pressure_operator::second_derivatives;  ///< the det F rows' operator (see the enum)
   negative_pressure negative = negative_pressure::keep;  ///< LSMPS needs no clamping (Tanaka §4.7)
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
@@ -143,6 +151,9 @@ struct lsmps_params {
     v.positive("rho", rho).non_negative("nu", nu);
     for (int a = 0; a < D; ++a) v.finite("g", g[a]);
     v.in_range("skin", skin, 0.0, 1.0).in_range("reorder_every", reorder_every, 0, 1e9);
+    v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::constrained_poisson),
+              "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not constrained_poisson "
+              "(the det F row at a copy has no nested form)");
     v.throw_if_any();
     op.validate();
     volume.validate();
@@ -572,9 +583,13 @@ class lsmps_semi_implicit {
       } else {
         mat<D> A = mat<D>::Identity();
         for (int a = 0; a < D; ++a) A.row(a) += dt * op_.gradient(x, nl_, i, comp_[a], participates).transpose();
-        const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
         row.reset(i);
-        op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
+        if (p_.pressure == pressure_operator::nested_gradient) {
+          build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);
+        } else {
+          const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
+          op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
+        }
         // Copies have no volume correction of their own; nor do particles near the free surface (below).
         const double c_i = i < n && !near_surface_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
         b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
@@ -625,6 +640,34 @@ class lsmps_semi_implicit {
       }
       pres[rows_[static_cast<std::size_t>(r)]] = v;
     }
+  }
+
+  /// Row i of (1/ρ) Σ_ab cof(A)_ab ∂_b⟨∇_a p⟩ with S = cof(A)/ρ: the LSMPS-A gradient (eq. 41) of the LSMPS-A
+  /// gradient, i.e. the linearisation of det(A − (Δt²/ρ) ∇⟨∇p⟩) (eq. 58, Jacobi's formula) with the velocity
+  /// correction's own operator, so that the corrected velocity satisfies the discrete condition exactly.
+  /// ⟨∂_b f⟩_i = Σ_j c_ij,b (f_j − f_i), so the row is Σ_j q_j·[(Gp)_j − (Gp)_i] with q_j = Sᵀ-contracted c_ij;
+  /// a copy j carries its parent's gradient (its velocity is the parent's in ∇u′, copy_velocity = extrapolated).
+  /// Two neighbour generations wide (≈ 80 entries per 2D row against ≈ 27).
+  void build_nested_row(index_t i, const mat<D>& S, op::row_entries& row) const {
+    const index_t n = s_.n_real();
+    const points<D>& x = s_.x();
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    // q · (G p)_j: the gradient row of j (a copy: of its parent) weighted by q.
+    const auto add_gradient_row = [&](index_t j, const vec<D>& q) {
+      const index_t jj = j >= n ? parent(j) : j;
+      op_.for_each_gradient_weight(x, nl_, jj, participates, [&](index_t k, const vec<D>& c) {
+        const double a = q.dot(c);
+        row.add(k, a);
+        row.add(jj, -a);
+      });
+    };
+    vec<D> sum_q = vec<D>::Zero();
+    op_.for_each_gradient_weight(x, nl_, i, participates, [&](index_t j, const vec<D>& c) {
+      const vec<D> q = S * c;  // q_a = Σ_b S_ab c_ij,b: the weight of (G_a p)_j in Σ_ab S_ab ∂_b (G_a p)
+      sum_q += q;
+      add_gradient_row(j, q);
+    });
+    add_gradient_row(i, -sum_q);
   }
 
   /// Calls f(j, a) over a merged row in increasing particle order: its columns with the coefficient of the

@@ -1,0 +1,157 @@
+// Stability of the LSMPS projection (scheme/lsmps_semi_implicit.hpp, docs/lsmps_scheme.md "Stability of the
+// projection"): the spectral radius of the linearised one-step velocity map at rest, with g = 0 and ν = 0.
+// Label projection_stability (built with SuiteSparse: the nested-gradient PPE needs a direct solver).
+#include <doctest/doctest.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "cases/polygon_tank.hpp"
+#include "mpskit/ppe/suitesparse.hpp"
+#include "mpskit/scene.hpp"
+
+using namespace mpskit;
+
+namespace {
+
+struct slab_scene : lsmps_defaults<2> {  // periodic in x, free surfaces above and below
+  using walls = mpskit::scheme::no_walls;
+  using shifting = mpskit::scheme::no_regularization;
+  using solver = mpskit::ppe::umfpack;
+};
+struct tank_scene : lsmps_defaults<2> {  // polygon tank, free surface on top
+  using shifting = mpskit::scheme::no_regularization;
+  using solver = mpskit::ppe::umfpack;
+};
+
+/// The fluid at rest with g = 0 and ν = 0 is a fixed point of one step; a velocity perturbation δu (|δu| Δt
+/// ≪ L, so the geometry is frozen) maps linearly: δu^{k+1} = P δu^k, P = I − G L⁻¹ D with the scheme's own
+/// divergence (det F source), PPE operator and gradient. A growing mode is an eigenvalue |λ| > 1 of P. P is
+/// built column by column from one step per unit perturbation (ε = 1e-9 m/s; the det F source is quadratic
+/// in ∇u′ beyond the linear term, so the neglected part is O(ε Δt) relative) minus the unperturbed step.
+template <class Scene>
+double spectral_radius(const scheme::lsmps_params<2>& p, const scheme::lsmps_state<2>& s0,
+                       const geometry::polygon_set<2>* walls) {
+  const index_t n = s0.n_real();
+  const double eps = 1e-9;
+  points<2> u0;
+  {
+    simulation<Scene> sim(p, s0, walls);
+    sim.step();
+    u0 = sim.state().u().leftCols(n);
+  }
+  Eigen::MatrixXd M(2 * n, 2 * n);
+  for (index_t c = 0; c < 2 * n; ++c) {
+    auto s = s0;
+    s.u()(c % 2, c / 2) += eps;
+    simulation<Scene> sim(p, std::move(s), walls);
+    sim.step();
+    for (index_t r = 0; r < 2 * n; ++r) M(r, c) = (sim.state().u()(r % 2, r / 2) - u0(r % 2, r / 2)) / eps;
+  }
+  const Eigen::VectorXcd ev = Eigen::EigenSolver<Eigen::MatrixXd>(M, false).eigenvalues();
+  return ev.cwiseAbs().maxCoeff();
+}
+
+scheme::lsmps_params<2> rest_params() {
+  scheme::lsmps_params<2> p;
+  p.g.setZero();
+  p.nu = 0.0;
+  p.time.mode = scheme::time_step_mode::fixed;
+  p.time.dt_fixed = 1e-3;
+  p.reorder_every = 0;
+  p.solver.tolerance = 1e-10;  // the direct solver's residual check (measured ≤ 2e-12)
+  return p;
+}
+
+}  // namespace
+
+TEST_SUITE("projection_stability") {
+  TEST_CASE("periodic slab with two free surfaces: second derivatives grow an odd-even mode, the nested gradient does not") {
+    const int nx = 16, ny = 8;
+    const double L = 0.01;
+    scheme::lsmps_state<2> s0(nx * ny);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) s0.x().col(j * nx + i) << (i + 0.5) * L, (j + 0.5) * L;
+    s0.u().setZero();
+    s0.get<field::volume>().setConstant(L * L);
+    auto p = rest_params();
+    p.domain.periodic[0] = true;
+    p.domain.hi[0] = nx * L;
+    const double compact = spectral_radius<slab_scene>(p, s0, nullptr);
+    p.pressure = scheme::pressure_operator::nested_gradient;
+    const double nested = spectral_radius<slab_scene>(p, s0, nullptr);
+    std::printf("projection_stability slab %dx%d: |lambda|max - 1 = %.3e (second derivatives), %.3e (nested gradient)\n",
+                nx, ny, compact - 1.0, nested - 1.0);
+    // Measured 1.57e-2: the odd-even vertical mode of the row below each free surface (the growth of the
+    // hydrostatic-tank runs, docs/lsmps_scheme.md). Asserted so that this analysis is known to detect an
+    // instability; when a fix of the default operator makes this fail, update the docs and this bound.
+    CHECK(compact - 1.0 >= 1e-2);
+    // The nested gradient makes P a projection (P² = P: D G L⁻¹ = I with L = D G), eigenvalues 0 or 1;
+    // measured within 1e-13 of 1. Bound 1e-9: the linearisation error O(ε Δt / L) ≈ 1e-10.
+    CHECK(nested - 1.0 <= 1e-9);
+  }
+  TEST_CASE("polygon tanks (90 and 60 degree walls, imaginary copies): the nested gradient keeps |lambda| <= 1") {
+    for (const double angle : {90.0, 60.0}) {
+      cases::polygon_tank_config tc;
+      tc.L = 0.01;
+      tc.W = 0.12;
+      tc.H = 0.08;
+      tc.angle_deg = angle;
+      tc.tank_height = 0.13;
+      const auto tank = cases::make_polygon_tank<2>(tc);
+      scheme::lsmps_state<2> s0(tank.size());
+      s0.x() = tank.x;
+      s0.u().setZero();
+      s0.get<field::volume>().setConstant(tc.L * tc.L);
+      auto p = rest_params();
+      p.volume.c_min = 1e-9;  // volume correction off: the staircase fill beside the incline has c < c_min,
+      p.volume.c_max = 1e9;   // which would make the state at rest move (no fixed point to linearise about)
+      const double compact = spectral_radius<tank_scene>(p, s0, &tank.walls);
+      p.pressure = scheme::pressure_operator::nested_gradient;
+      const double nested = spectral_radius<tank_scene>(p, s0, &tank.walls);
+      std::printf("projection_stability tank %.0f deg, %lld fluid: |lambda|max - 1 = %.3e (second derivatives), %.3e (nested)\n",
+                  angle, static_cast<long long>(tank.size()), compact - 1.0, nested - 1.0);
+      CHECK(compact - 1.0 >= 1e-2);  // measured 1.52e-2 (both tanks), as the slab
+      CHECK(nested - 1.0 <= 1e-9);   // measured ≤ 4e-12
+    }
+  }
+  TEST_CASE("nested gradient: the first step from rest reproduces the hydrostatic pressure") {
+    cases::polygon_tank_config tc;
+    tc.L = 0.005;
+    tc.W = 0.1;
+    tc.H = 0.1;
+    tc.tank_height = 0.15;
+    tc.angle_deg = 60.0;
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    scheme::lsmps_state<2> s0(tank.size());
+    s0.x() = tank.x;
+    s0.u().setZero();
+    s0.get<field::volume>().setConstant(tc.L * tc.L);
+    auto p = rest_params();
+    p.g = scheme::semi_implicit_params<2>::gravity();
+    p.volume.c_min = 1e-9;
+    p.volume.c_max = 1e9;
+    p.pressure = scheme::pressure_operator::nested_gradient;
+    simulation<tank_scene> sim(p, std::move(s0), &tank.walls);
+    sim.step();
+    const auto& P = sim.state().get<field::pressure>();
+    const double g = -p.g[1], rho = p.rho;
+    double ztop = -1e9, err = 0.0;
+    for (index_t i = 0; i < tank.size(); ++i) ztop = std::max(ztop, tank.x(1, i));
+    for (index_t i = 0; i < tank.size(); ++i)
+      err = std::max(err, std::abs(P[i] - rho * g * (ztop - tank.x(1, i))) / (rho * g * tc.H));
+    std::printf("projection_stability nested hydrostatic first step: max |p - rho g d| / (rho g H) = %.2e\n", err);
+    // LSMPS-A of order 2 differentiates the linear field exactly and its gradient (a constant) to zero, so the
+    // hydrostatic field solves the nested rows and the parent-gradient wall rows exactly; UMFPACK's rounding on
+    // this ill-conditioned matrix (its near-null checkerboard, see the docs) is the only error. Bound 1e-6.
+    CHECK(err <= 1e-6);
+  }
+  TEST_CASE("bad input: the nested gradient with the constrained-Poisson wall rows is refused") {
+    scheme::lsmps_params<2> p;
+    p.pressure = scheme::pressure_operator::nested_gradient;
+    p.copy_row = scheme::copy_row_kind::constrained_poisson;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("nested_gradient"), mpskit::error);
+  }
+}
