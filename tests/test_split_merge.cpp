@@ -17,6 +17,7 @@
 #include <omp.h>
 #endif
 
+#include "archetypes/resolution.hpp"
 #include "mpskit/core/state.hpp"
 #include "mpskit/geometry/generators.hpp"
 #include "mpskit/geometry/polygon_set.hpp"
@@ -37,6 +38,7 @@ static_assert(res::ResolutionCompatibleWalls<wall::imaginary>);
 static_assert(res::ResolutionCompatibleWalls<scheme::no_walls>);
 static_assert(res::Trigger<res::tanaka_thresholds> && !res::Trigger<double>);
 static_assert(res::SplitPattern<res::two_way> && !res::SplitPattern<double>);
+static_assert(res::Trigger<archetypes::trigger> && res::SplitPattern<archetypes::split_pattern>);
 static_assert(std::same_as<res::split_merge<>::fields, field_list<field::volume>>);
 
 namespace {
@@ -253,6 +255,19 @@ TEST_CASE("split_merge: particle_state::gather is one resize (born particles get
   s.validate();
   CHECK_THROWS_AS(s.gather({0, 0}, {0, 0}), mpskit::error);  // one old particle kept twice
   CHECK_THROWS_AS(s.gather({0, 7}, {0, 1}), mpskit::error);  // not a particle
+}
+
+TEST_CASE("split_merge: the trigger is a policy (a later method replaces only it)") {
+  world<2> w;
+  w.s = make_state<2>(lattice<2>({5, 5}, vec<2>(l0, l0)), l0 * l0);
+  res::split_merge_params<2> p;
+  p.target_diameter = [](const vec<2>&) { return 0.1 * l0; };  // Tanaka's trigger would split everything
+  w.refresh();
+  const auto rep = res::split_merge<archetypes::trigger, archetypes::split_pattern>::apply(exec::seq{}, w.s, w.inputs(), p,
+                                                                                       zero_grad<2>);
+  CHECK(rep.wanted_split == 0);
+  CHECK(rep.splits == 0);
+  CHECK(w.s.n_real() == 25);
 }
 
 TEST_CASE("split_merge: 2D square lattice splits along the diagonal with e_i computed by hand") {

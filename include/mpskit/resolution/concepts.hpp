@@ -25,10 +25,13 @@ concept Trigger = requires(double a, double b) {
   { T::template decide<3>(a, b) } -> std::same_as<want>;
 };
 
-/// A split pattern: `P::children` particles of volume V / children each (only two_way exists).
+/// A split pattern: `P::children` particles of volume V / children each, of diameter
+/// `P::template child_ratio<D>()` · L (only two_way exists).
 template <class P>
 concept SplitPattern = requires {
   { P::children } -> std::convertible_to<int>;
+  { P::template child_ratio<2>() } -> std::convertible_to<double>;
+  { P::template child_ratio<3>() } -> std::convertible_to<double>;
 } && (P::children >= 2);
 
 /// Wall models split/merge accepts. wall::dummy_layers is refused: smaller fluid particles leak between

@@ -158,9 +158,12 @@ struct split_merge_params {
   void validate() const {
     validator v("split_merge_params");
     v.require(static_cast<bool>(target_diameter), "target_diameter", "is not set: give a callable L*(x) (m)");
-    v.in_open_range("alpha_e", alpha_e, 0.0, 1.0 + 1e-15);
-    v.in_open_range("alpha_t", alpha_t, 0.0, 2.0 + 1e-15);
-    v.in_open_range("alpha_r", alpha_r, 0.0, 3.0 + 1e-15);
+    v.require(alpha_e > 0.0 && alpha_e <= 1.0, "alpha_e",
+              mpskit::detail::concat("= ", alpha_e, ": must be in (0, 1] (e_ij is in [0, 1], eq. 69)"));
+    v.require(alpha_t > 0.0 && alpha_t <= 2.0, "alpha_t",
+              mpskit::detail::concat("= ", alpha_t, ": must be in (0, 2] (children α_t L′ apart, eq. 67)"));
+    v.require(alpha_r > 0.0 && alpha_r <= 3.0, "alpha_r",
+              mpskit::detail::concat("= ", alpha_r, ": must be in (0, 3] (partners within α_r L_ij; lists reach 3.1 L)"));
     v.in_range("n_theta", n_theta, 1, 100000);
     v.in_range("n_directions_3d", n_directions_3d, 1, 1000000);
     v.in_range("wall_clearance", wall_clearance, 0.0, 10.0);
