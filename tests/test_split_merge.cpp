@@ -18,12 +18,14 @@
 #endif
 
 #include "archetypes/resolution.hpp"
+#include "cases/taylor_green.hpp"
 #include "mpskit/core/state.hpp"
 #include "mpskit/geometry/generators.hpp"
 #include "mpskit/geometry/polygon_set.hpp"
 #include "mpskit/resolution/concepts.hpp"
 #include "mpskit/resolution/ledger.hpp"
 #include "mpskit/resolution/split_merge.hpp"
+#include "mpskit/scene.hpp"
 #include "mpskit/scheme/lsmps_semi_implicit.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 #include "mpskit/wall/dummy_layers.hpp"
@@ -42,6 +44,12 @@ static_assert(res::Trigger<archetypes::trigger> && res::SplitPattern<archetypes:
 static_assert(std::same_as<res::split_merge<>::fields, field_list<field::volume>>);
 
 namespace {
+
+/// The Taylor–Green scene with split/merge as its resolution policy.
+struct tg_multires : cases::taylor_green_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+static_assert(simulation<tg_multires>::has_resolution && !simulation<cases::taylor_green_scene>::has_resolution);
 
 template <int D>
 using sm_state = particle_state<D, field_list<field::pressure, field::volume>>;
@@ -848,6 +856,49 @@ TEST_CASE("split_merge: the target callable may read wall and surface distances"
   REQUIRE(seen_wall.size() == 25);
   CHECK(seen_wall[0] == doctest::Approx(0.03).epsilon(1e-12));  // particle 0 at (0.03, 0.03)
   CHECK(std::isinf(seen_surface[0]));                           // no surface flags
+}
+
+TEST_CASE("split_merge: the LSMPS stepper's resolution stage (Taylor-Green vortex with a refined disc)") {
+  // N = 20 (L = 0.05 m), periodic; L* = 0.75 L in the disc r < 0.25 m around (0.75, 0.75) m (split once:
+  // 0.75 < β_s = 0.854, children keep: 0.75 L ≥ β_s L′ = 0.604 L), 1.05 L outside (children leaving merge:
+  // 1.05 L > β_m L′ = L). 30 steps at a fixed Δt = 0.09 L′/U.
+  cases::taylor_green_config c;
+  c.n = 20;
+  const double L = c.width / c.n;
+  auto p = c.params;
+  p.rho = c.rho;
+  p.nu = 0.0;
+  p.g.setZero();
+  p.domain.periodic = {true, true};
+  p.domain.lo = vec<2>::Zero();
+  p.domain.hi = vec<2>::Constant(c.width);
+  p.time.mode = scheme::time_step_mode::fixed;
+  p.time.dt_fixed = c.dt_courant * (L / std::sqrt(2.0)) / c.speed;  // Courant on the children's L′
+  p.time.dt_max = p.time.dt_fixed;
+  p.resolution.target_diameter = [L](const vec<2>& x) { return (x - vec<2>(0.75, 0.75)).norm() < 0.25 ? 0.75 * L : 1.05 * L; };
+  simulation<tg_multires> sim(p, cases::taylor_green_state(c));
+  const auto total = [](const auto& st) {
+    res::detail::exact_sum v;
+    for (index_t i = 0; i < st.n_real(); ++i) v.add(st.template get<field::volume>()[i]);
+    return v;
+  };
+  const auto V0 = total(sim.state());
+  const index_t n0 = sim.state().n_real();
+  for (int k = 0; k < 30; ++k) sim.step();
+  const auto V1 = total(sim.state());
+  const double dV = V1.minus(V0) / (std::numeric_limits<double>::epsilon() * V0.value());
+  double umax = 0.0;
+  for (index_t i = 0; i < sim.state().n_real(); ++i) umax = std::max(umax, sim.state().u().col(i).norm());
+  MESSAGE("Taylor-Green N=20, 30 steps: " << n0 << " -> " << sim.state().n_real() << " particles, " << sim.counters().splits
+                                          << " splits, " << sim.counters().merges << " merges, ΔΣV = " << dV
+                                          << " ulp ΣV, ledger ΔKE = " << sim.ledger().totals().dKE << " J/m, max|u| = " << umax);
+  CHECK(sim.counters().splits > 20);
+  CHECK(sim.state().n_real() == n0 + sim.counters().splits - sim.counters().merges);
+  CHECK(sim.ledger().steps() == 30);
+  CHECK(sim.ledger().totals().splits == sim.counters().splits);
+  CHECK(std::abs(dV) <= 4.0 * static_cast<double>(sim.counters().splits + sim.counters().merges + 1));
+  CHECK(umax < 2.0);
+  sim.state().validate();
 }
 
 }  // TEST_SUITE
