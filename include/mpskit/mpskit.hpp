@@ -57,6 +57,7 @@
 #include "mpskit/resolution/concepts.hpp"
 #include "mpskit/resolution/ledger.hpp"
 #include "mpskit/resolution/split_merge.hpp"
+#include "mpskit/resolution/uniform.hpp"
 #include "mpskit/scheme/lsmps_semi_implicit.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"

@@ -394,6 +394,11 @@ struct split_merge final {
         rep_.refused[static_cast<std::size_t>(refusal::disabled)] += static_cast<index_t>(split_cand_.size());
         split_cand_.clear();
       }
+      if (!in_.normals)
+        for (index_t i : split_cand_)
+          if (flag_of(i) & flag::surface)
+            fail("split_merge: surface particle ", i, " (id ", id_of(i), ") asks to split but inputs.normals is null "
+                 "(a surface split is perpendicular to n)");
       choice_.assign(split_cand_.size(), split_choice{});
       const std::vector<vec<D>> dirs = split_directions<D>(p_.n_theta, p_.n_directions_3d);
       for_each_particle(e, static_cast<index_t>(split_cand_.size()), [&](index_t k) {
