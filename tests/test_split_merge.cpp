@@ -235,7 +235,6 @@ TEST_CASE("split_merge: thresholds β_s (eq. 66) and β_m (eq. 71) from the pape
   CHECK(T::decide<2>(1.42 * l0, l0) == res::want::merge);
   for (int d : {2, 3}) {
     const double bs = d == 2 ? bs2 : bs3, bm = d == 2 ? bm2 : bm3, child = std::pow(0.5, 1.0 / d);
-    CHECK(bs * 1.0 < bm * child * 1.0 + 1.0);     // trivially
     CHECK(bs * l0 <= bm * (child * l0) + 1e-18);  // L* < β_s L ⇒ L* < β_m L′ = L: a child never merges at once
     CHECK(bm * l0 >= bs * (bm * l0));             // L* > β_m L = L′ ⇒ L* > β_s L′: a merged pair never splits
   }
