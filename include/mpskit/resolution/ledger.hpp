@@ -87,9 +87,9 @@ angular_t<D> cross(const vec<D>& a, const vec<D>& b) {
 /// One particle as the ledger sees it: volume, position, velocity.
 template <int D>
 struct particle_view {
-  double V = 0.0;               ///< volume (m^D)
-  vec<D> x = vec<D>::Zero();    ///< position (m), unwrapped relative to the event
-  vec<D> u = vec<D>::Zero();    ///< velocity (m/s)
+  double V = 0.0;             ///< volume (m^D)
+  vec<D> x = vec<D>::Zero();  ///< position (m), unwrapped relative to the event
+  vec<D> u = vec<D>::Zero();  ///< velocity (m/s)
 };
 
 /// Tolerances of the per-event checks and the density of the reports.
@@ -110,12 +110,12 @@ struct ledger_params {
 /// What one event changed (after − before).
 template <int D>
 struct event_balance {
-  double dV = 0.0;                                   ///< ΔΣV (m^D), exact to the last bit
-  vec<D> dVu = vec<D>::Zero();                       ///< ΔΣVu (m^(D+1)/s)
-  double scale_V = 0.0;                              ///< ΣV of the event (larger of before/after)
-  double scale_Vu = 0.0;                             ///< ΣV|u| of the event (larger of before/after)
-  double dKE = 0.0;                                  ///< Δ ½ ρ Σ V|u|² (J in 3D, J/m in 2D)
-  angular_t<D> dL = angular_t<D>::Zero();            ///< Δ ρ Σ V x × u (origin-independent: ΣVu is kept)
+  double dV = 0.0;                         ///< ΔΣV (m^D), exact to the last bit
+  vec<D> dVu = vec<D>::Zero();             ///< ΔΣVu (m^(D+1)/s)
+  double scale_V = 0.0;                    ///< ΣV of the event (larger of before/after)
+  double scale_Vu = 0.0;                   ///< ΣV|u| of the event (larger of before/after)
+  double dKE = 0.0;                        ///< Δ ½ ρ Σ V|u|² (J in 3D, J/m in 2D)
+  angular_t<D> dL = angular_t<D>::Zero();  ///< Δ ρ Σ V x × u (origin-independent: ΣVu is kept)
   /// |ΔΣV| in units of ε ΣV.
   double volume_ulps() const { return scale_V > 0.0 ? std::abs(dV) / (eps() * scale_V) : 0.0; }
   /// |ΔΣVu| in units of ε ΣV|u|.
@@ -126,24 +126,24 @@ struct event_balance {
 /// Volume and momentum through one named boundary in a step (positive: into the domain).
 template <int D>
 struct flux_entry {
-  std::string name;                    ///< boundary name (e.g. "inflow")
-  double volume = 0.0;                 ///< ΣV entering (m^D)
-  vec<D> momentum = vec<D>::Zero();    ///< ΣVu entering (m^(D+1)/s)
-  index_t particles = 0;               ///< particles entering (negative: leaving)
+  std::string name;                  ///< boundary name (e.g. "inflow")
+  double volume = 0.0;               ///< ΣV entering (m^D)
+  vec<D> momentum = vec<D>::Zero();  ///< ΣVu entering (m^(D+1)/s)
+  index_t particles = 0;             ///< particles entering (negative: leaving)
 };
 
 /// One step of the ledger.
 template <int D>
 struct ledger_step {
-  index_t splits = 0;                           ///< split events
-  index_t merges = 0;                           ///< merge events
-  double dV = 0.0;                              ///< Σ of the events' ΔΣV
-  vec<D> dVu = vec<D>::Zero();                  ///< Σ of the events' ΔΣVu
-  double dKE = 0.0;                             ///< Σ of the events' kinetic-energy change (reported)
-  angular_t<D> dL = angular_t<D>::Zero();       ///< Σ of the events' angular-momentum change (reported)
-  double max_volume_ulps = 0.0;                 ///< largest per-event |ΔΣV| / (ε ΣV)
-  double max_momentum_ulps = 0.0;               ///< largest per-event |ΔΣVu| / (ε ΣV|u|)
-  std::vector<flux_entry<D>> fluxes;            ///< boundary fluxes added this step
+  index_t splits = 0;                      ///< split events
+  index_t merges = 0;                      ///< merge events
+  double dV = 0.0;                         ///< Σ of the events' ΔΣV
+  vec<D> dVu = vec<D>::Zero();             ///< Σ of the events' ΔΣVu
+  double dKE = 0.0;                        ///< Σ of the events' kinetic-energy change (reported)
+  angular_t<D> dL = angular_t<D>::Zero();  ///< Σ of the events' angular-momentum change (reported)
+  double max_volume_ulps = 0.0;            ///< largest per-event |ΔΣV| / (ε ΣV)
+  double max_momentum_ulps = 0.0;          ///< largest per-event |ΔΣVu| / (ε ΣV|u|)
+  std::vector<flux_entry<D>> fluxes;       ///< boundary fluxes added this step
   /// Total volume entering through boundaries.
   double flux_volume() const {
     double s = 0.0;
@@ -154,7 +154,7 @@ struct ledger_step {
 
 /// Per-event checks and per-step reports of split/merge (and boundary) changes; see the file comment.
 template <int D>
-  requires Dimension<D>
+requires Dimension<D>
 class conservation_ledger {
  public:
   /// Takes the tolerances and density (validated).
@@ -242,7 +242,8 @@ class conservation_ledger {
   long steps() const { return steps_; }
 
   /// The exact changes of one event (no check, nothing recorded).
-  event_balance<D> measure(std::span<const particle_view<D>> before, std::span<const particle_view<D>> after) const {
+  event_balance<D> measure(std::span<const particle_view<D>> before,
+                           std::span<const particle_view<D>> after) const {
     event_balance<D> b;
     detail::exact_sum v0, v1, s0, s1;
     std::array<detail::exact_sum, D> m0{}, m1{};
@@ -268,7 +269,8 @@ class conservation_ledger {
     for (const auto& p : before) add(p, v0, s0, m0, ke0, L0);
     for (const auto& p : after) add(p, v1, s1, m1, ke1, L1);
     b.dV = v1.minus(v0);
-    for (int a = 0; a < D; ++a) b.dVu[a] = m1[static_cast<std::size_t>(a)].minus(m0[static_cast<std::size_t>(a)]);
+    for (int a = 0; a < D; ++a)
+      b.dVu[a] = m1[static_cast<std::size_t>(a)].minus(m0[static_cast<std::size_t>(a)]);
     b.scale_V = std::max(v0.value(), v1.value());
     b.scale_Vu = std::max(s0.value(), s1.value());
     b.dKE = ke1 - ke0;
