@@ -174,6 +174,28 @@ class particle_state<D, field_list<Extra...>> {
     return apply(src, static_cast<index_t>(src.size()), 0);
   }
 
+  /// Rebuilds the real range in one pass (splitting, merging: ARCHITECTURE.md §3) and drops every ghost.
+  /// New real slot k takes every field of old real particle src[k]. With born[k] == 0 the slot *is* that
+  /// particle moved (an old particle appears at most once this way; old_to_new records it); with born[k] != 0
+  /// it is a new particle (fresh id, role none, parent npos) whose fields start as a copy of src[k] (npos:
+  /// zero fields), and old_to_new does not point at it. Old real particles kept in no slot are removed.
+  resize_report gather(const std::vector<index_t>& src, const std::vector<std::uint8_t>& born) {
+    if (born.size() != src.size())
+      fail("gather: ", src.size(), " sources but ", born.size(), " born marks");
+    std::vector<char> kept(static_cast<std::size_t>(n_real_), 0);
+    for (std::size_t k = 0; k < src.size(); ++k) {
+      const index_t p = src[k];
+      if (p == npos && born[k]) continue;
+      if (p < 0 || p >= n_real_)
+        fail("gather: entry ", k, " = ", p, " is not a real particle index in [0, ", n_real_, ")");
+      if (born[k]) continue;
+      if (kept[static_cast<std::size_t>(p)])
+        fail("gather: old particle ", p, " is kept in two slots (mark the copies as born)");
+      kept[static_cast<std::size_t>(p)] = 1;
+    }
+    return apply(src, static_cast<index_t>(src.size()), 0, &born);
+  }
+
   /// Sets the layout read back from a checkpoint or output file (io/): every field resized to
   /// n_real + n_ghost entries (the first min(old, new) entries kept, new ones zero), counts and the next
   /// id set. Not a resize path (nothing remapped, no ids given): the caller fills every field, then
@@ -289,7 +311,10 @@ class particle_state<D, field_list<Extra...>> {
   /// The one path: new slot k takes old slot src[k] (npos: a new particle with zero fields). Slots
   /// [0, n_real) are real, the next n_ghost are ghosts. Index-holding fields are remapped through
   /// old_to_new; new real particles (and promoted ghosts) get fresh ids.
-  resize_report apply(const std::vector<index_t>& src, index_t n_real, index_t n_ghost) {
+  /// born (gather only): slots that are new particles copied from src[k] (fresh ids, not in old_to_new).
+  resize_report apply(const std::vector<index_t>& src, index_t n_real, index_t n_ghost,
+                      const std::vector<std::uint8_t>* born = nullptr) {
+    const auto is_born = [born](index_t k) { return born && (*born)[static_cast<std::size_t>(k)] != 0; };
     resize_report rep;
     rep.old_size = n_total_;
     const index_t m = n_real + n_ghost;
@@ -298,9 +323,9 @@ class particle_state<D, field_list<Extra...>> {
     rep.old_to_new.assign(static_cast<std::size_t>(n_total_), npos);
     for (index_t k = 0; k < m; ++k) {
       const index_t s = src[static_cast<std::size_t>(k)];
-      if (s >= 0) rep.old_to_new[static_cast<std::size_t>(s)] = k;
+      if (s >= 0 && !is_born(k)) rep.old_to_new[static_cast<std::size_t>(s)] = k;
       if (k < n_real) {
-        if (s < 0) ++rep.appended;
+        if (s < 0 || is_born(k)) ++rep.appended;
         else if (s >= n_real_) ++rep.promoted;
         else if (s != k) ++rep.reordered;
       } else if (s < 0) {
@@ -349,7 +374,7 @@ class particle_state<D, field_list<Extra...>> {
       const std::size_t ks = static_cast<std::size_t>(k);
       const index_t s = src[ks];
       if (k < n_real) {
-        if (s < 0 || s >= n_real_) {  // new or promoted: a fresh persistent id
+        if (s < 0 || s >= n_real_ || is_born(k)) {  // new, born or promoted: a fresh persistent id
           id[ks] = next_id_++;
           roles[ks] = ghost_role::none;
           parents[ks] = npos;

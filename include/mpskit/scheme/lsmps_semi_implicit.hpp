@@ -32,6 +32,8 @@
 ///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16).
 /// 10. Shifting (eqs. 93–100) with δu = ∇u δx (eq. 91), if the scene names it.
 /// 11. Wall-crossing guard (a documented deviation), periodic wrap, NaN/inf check.
+/// 12. If Scene::resolution is split_merge: splitting/merging on this step's list, normals and flags, one
+///     resize (scheme/detail/resolution_stage.hpp, docs/resolution.md).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -62,6 +64,7 @@
 #include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/ppe/solve.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
+#include "mpskit/scheme/detail/resolution_stage.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"
 #include "mpskit/search/domain.hpp"
@@ -144,6 +147,8 @@ struct lsmps_params {
   search::domain<D> domain{};           ///< periodic axes
   double skin = 0.2;                    ///< list skin (fraction of the build radius)
   int reorder_every = 25;               ///< steps between cell reorders (0: never)
+  /// Split/merge numbers and L* (used, and validated by the stepper, only when Scene::resolution is split_merge).
+  resolution::split_merge_params<D> resolution{};
 
   /// Throws mpskit::error listing every bad value.
   void validate() const {
@@ -183,6 +188,8 @@ struct lsmps_counters {
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
   long list_builds = 0;            ///< neighbour-list builds
   long reorders = 0;               ///< cell reorders
+  long splits = 0;                 ///< particle splits (Scene::resolution)
+  long merges = 0;                 ///< particle merges (Scene::resolution)
 };
 
 /// Particle state of the LSMPS scheme: core fields + pressure + volume (V = L^D, Tanaka eq. 26; copies
@@ -208,6 +215,12 @@ class lsmps_semi_implicit {
   static constexpr bool has_walls = !std::is_same_v<walls_type, no_walls>;
   static constexpr bool has_surface = !std::is_same_v<surface_type, no_surface>;
   static constexpr bool has_shift = !std::is_same_v<shifting_type, no_regularization>;
+  using resolution_type = detail::scene_resolution_t<Scene>;  ///< Scene::resolution, default uniform
+  static constexpr bool has_resolution = !std::is_same_v<resolution_type, resolution::uniform>;
+  static_assert(!has_resolution || detail::is_split_merge<resolution_type>::value,
+                "mpskit: the LSMPS scheme takes resolution::uniform or resolution::split_merge<...>");
+  static_assert(!has_resolution || resolution::ResolutionCompatibleWalls<walls_type>,
+                "mpskit: resolution::split_merge cannot run with wall::dummy_layers (Tanaka 2018 §4.5.1)");
   static_assert(ppe::SecondDerivativeOperator<op_type>,
                 "mpskit: the det F source (Tanaka 2018 eq. 63) needs every second derivative separately: "
                 "use LSMPS type A of order >= 2 (classic MPS and order 1 cannot give them)");
@@ -226,6 +239,12 @@ class lsmps_semi_implicit {
       : p_(checked(p)), op_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls) {
     solver_.set_params(p_.solver);
     adjoint_solver_.set_params(p_.solver);
+    if constexpr (has_resolution) {
+      p_.resolution.validate();
+      resolution::ledger_params lp = p_.resolution.ledger;
+      lp.rho = p_.rho;
+      ledger_ = resolution::conservation_ledger<D>(lp);
+    }
     if constexpr (has_walls) {
       if (!walls_) fail("lsmps_semi_implicit: the scene has wall::imaginary but no geometry was given");
     } else {
@@ -255,6 +274,10 @@ class lsmps_semi_implicit {
   const Eigen::VectorXd& packing_ratio() const { return c_pack_; }    ///< c of the last step (real + copies)
   const points<D>& normals() const { return normal_; }                ///< normals of the last step
   const time_step_controller& time_step() const { return dt_ctrl_; }  ///< Δt controller
+  /// Split/merge ledger (Scene::resolution): one closed step per step() call.
+  const resolution::conservation_ledger<D>& ledger() const { return ledger_; }
+  /// What the resolution stage of the last step did (empty for resolution::uniform).
+  const resolution::split_merge_report<D>& last_resolution() const { return last_resolution_; }
   /// Diameter of particle i in the last step (V^(1/D)).
   double diameter(index_t i) const { return L_[i]; }
 
@@ -382,6 +405,7 @@ class lsmps_semi_implicit {
     }
     if (p_.domain.any_periodic())
       for (index_t i = 0; i < n; ++i) s_.x().col(i) = p_.domain.wrap(s_.x().col(i));
+    if constexpr (has_resolution) resolve_sizes();
     t_ += dt;
     ++c_.steps;
     check_finite();
@@ -748,6 +772,18 @@ class lsmps_semi_implicit {
     }
   }
 
+  /// 12. Resolution stage (docs/resolution.md): split/merge on this step's list, diameters, normals and flags
+  /// (the ghosts are dropped by its one resize); diameters refreshed for diameter().
+  void resolve_sizes() {
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    last_resolution_ = detail::run_resolution_stage<resolution_type>(s_, nl_, L_, normal_, walls_, xold_, op_, participates,
+                                                                     p_.resolution, ledger_);
+    c_.splits += static_cast<long>(last_resolution_.splits);
+    c_.merges += static_cast<long>(last_resolution_.merges);
+    ledger_.close_step();
+    sizes_from_volumes();
+  }
+
   void check_finite() const {
     for (index_t i = 0; i < s_.n_real(); ++i)
       if (!s_.x().col(i).allFinite() || !s_.u().col(i).allFinite() ||
@@ -775,6 +811,8 @@ class lsmps_semi_implicit {
   Eigen::VectorXd b_;
   ppe::solve_report last_solve_{};
   lsmps_counters c_{};
+  resolution::conservation_ledger<D> ledger_{};
+  resolution::split_merge_report<D> last_resolution_{};
   double t_ = 0.0, dt_ = 0.0;
 };
 
