@@ -1,0 +1,190 @@
+#pragma once
+// Plane Poiseuille flow (Tanaka 2018 §5.2 / validation-cases.md A2 and D1) with Tanaka's LSMPS scheme: a
+// 2D channel between polygon walls at y = 0 and y = H (wall::imaginary), periodic in x through the
+// search, no free surface, driven from rest by the body force G/ρ (the periodic equivalent of the
+// pressure drop G = Δp/ℓ). Measured: the row-averaged velocity profile against the start-up series
+// (D1) at probe times and at the end.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "mpskit/scene.hpp"
+
+namespace mpskit::cases {
+
+/// The scene: LSMPS defaults without free-surface detection (a closed channel: every particle is inner and
+/// the periodic channel's PPE has no Dirichlet row, so it is pinned; scheme docs, deviation 1).
+struct poiseuille_scene : lsmps_defaults<2> {
+  using surface = mpskit::scheme::no_surface;
+};
+
+/// Plane Poiseuille start-up from rest (validation-cases.md D1): u(y, t) = G/(2μ) y(H − y) −
+/// 4 G H²/(μ π³) Σ_{n odd} sin(nπy/H)/n³ exp(−n²π²νt/H²).
+struct poiseuille_exact {
+  double G = 1000.0;   ///< pressure gradient −∂p/∂x (Pa/m)
+  double H = 0.01;     ///< channel width (m)
+  double mu = 0.1;     ///< dynamic viscosity (Pa s)
+  double rho = 1000.0; ///< density (kg/m³)
+  /// Steady profile G/(2μ) y (H − y).
+  double steady(double y) const { return G / (2.0 * mu) * y * (H - y); }
+  /// u_max = G H² / (8 μ).
+  double u_max() const { return G * H * H / (8.0 * mu); }
+  /// The series at time t (terms until they are below 1e-16 u_max; at t = 0 the series converges as 1/n³).
+  double velocity(double y, double t) const {
+    const double pi = std::numbers::pi, nu = mu / rho;
+    double sum = 0.0;
+    for (int n = 1; n < 20001; n += 2) {
+      const double term = std::sin(n * pi * y / H) / (double(n) * n * n) * std::exp(-n * n * pi * pi * nu * t / (H * H));
+      sum += term;
+      if (std::abs(1.0 / (double(n) * n * n)) * std::exp(-n * n * pi * pi * nu * t / (H * H)) < 1e-16) break;
+    }
+    return steady(y) - 4.0 * G * H * H / (mu * pi * pi * pi) * sum;
+  }
+};
+
+/// Set-up (defaults: Tanaka A2's numbers; the channel length only has to exceed twice the build radius).
+struct poiseuille_config {
+  double H = 0.01;          ///< channel width (m), Tanaka A2: 10 mm
+  double length = 0.005;    ///< period along x (m); > 2 R_e L (1 + skin) = 3.72 mm at L = 0.5 mm
+  double L = 0.5e-3;        ///< particle diameter (m), Tanaka A2: 0.5 mm
+  double G = 1000.0;        ///< pressure gradient (Pa/m), body force G/ρ
+  double rho = 1000.0;      ///< density (kg/m³)
+  double mu = 0.1;          ///< dynamic viscosity (Pa s)
+  double t_end = 0.5;       ///< run end (s)
+  double dt = 2.5e-4;       ///< fixed Δt (s): the viscous limit 0.1 L²/ν at L = 0.5 mm (Courant gives 4e-4)
+  std::vector<double> probe_times{0.05, 0.1};  ///< times at which the transient is compared with the series
+  scheme::lsmps_params<2> params{};  ///< scheme numbers (rho, nu, g, domain, Δt are set from the above)
+};
+
+/// Profile error at one time.
+struct poiseuille_probe {
+  double t = 0.0;            ///< simulated time (s)
+  double max_error = 0.0;    ///< max over rows of |ū_row − u(y_row, t)| / u_max
+  double rms_error = 0.0;    ///< RMS over rows of the same
+  double max_cross = 0.0;    ///< max |v| / u_max (should be ~0)
+};
+
+/// What a run measured.
+struct poiseuille_result {
+  std::vector<poiseuille_probe> probes;  ///< at probe_times
+  poiseuille_probe end;                  ///< at t_end, against the series (≈ steady)
+  double steady_error = 0.0;             ///< max over rows |ū_row − u_steady(y_row)| / u_max at t_end
+  double centre_velocity = 0.0;          ///< ū of the row nearest the centre line at t_end (m/s)
+  long steps = 0;                        ///< steps taken
+  long guarded = 0;                      ///< wall-crossing guard activations
+  long pinned = 0;                       ///< pinned PPE parts
+  long ppe_iterations = 0;               ///< total solver iterations
+  double wall_seconds = 0.0;             ///< wall time of the run
+  index_t particles = 0;                 ///< fluid particles
+};
+
+/// The channel's walls: two segments y = 0 (normal +y) and y = H (normal −y), extended by `overhang`
+/// beyond the period box [x_lo, x_hi] so that every particle (x wrapped into the box) has the foot of its
+/// perpendicular inside a segment (no copies at segment ends near the periodic seam).
+inline geometry::polygon_set<2> channel_walls(double x_lo, double x_hi, double H, double overhang) {
+  geometry::polygon_mesh<2> m;
+  m.vertices.resize(2, 4);
+  m.vertices.col(0) = vec<2>(x_lo - overhang, 0.0);
+  m.vertices.col(1) = vec<2>(x_hi + overhang, 0.0);
+  m.vertices.col(2) = vec<2>(x_hi + overhang, H);
+  m.vertices.col(3) = vec<2>(x_lo - overhang, H);
+  m.elements.resize(2, 2);
+  m.elements.col(0) << 0, 1;  // left normal of +x: +y (fluid above the floor)
+  m.elements.col(1) << 2, 3;  // left normal of −x: −y (fluid below the lid)
+  return geometry::polygon_set<2>(std::move(m));
+}
+
+/// Fluid on the lattice ((i + ½) L, (j + ½) L) over [0, length) × [0, H), at rest.
+inline scheme::lsmps_state<2> channel_state(double length, double H, double L) {
+  const int nx = static_cast<int>(std::lround(length / L)), ny = static_cast<int>(std::lround(H / L));
+  scheme::lsmps_state<2> s(static_cast<index_t>(nx) * ny);
+  auto& V = s.get<field::volume>();
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const index_t k = static_cast<index_t>(j) * nx + i;
+      s.x().col(k) = vec<2>((i + 0.5) * L, (j + 0.5) * L);
+      V[k] = L * L;
+    }
+  return s;
+}
+
+/// Row-averaged profile (rows of width L, as on the initial lattice) against `exact` at time t.
+template <class State>
+poiseuille_probe profile_error(const State& st, const poiseuille_exact& ex, double L, double t, bool steady) {
+  const int ny = static_cast<int>(std::lround(ex.H / L));
+  std::vector<double> us(ny, 0.0), ys(ny, 0.0);
+  std::vector<long> cnt(ny, 0);
+  poiseuille_probe pr;
+  pr.t = t;
+  const double um = ex.u_max();
+  for (index_t i = 0; i < st.n_real(); ++i) {
+    const double y = st.x()(1, i);
+    const int b = std::clamp(static_cast<int>(std::floor(y / L)), 0, ny - 1);
+    us[b] += st.u()(0, i);
+    ys[b] += y;
+    ++cnt[b];
+    pr.max_cross = std::max(pr.max_cross, std::abs(st.u()(1, i)) / um);
+  }
+  double sq = 0.0;
+  int rows = 0;
+  for (int b = 0; b < ny; ++b) {
+    if (cnt[b] == 0) continue;
+    const double y = ys[b] / cnt[b], u = us[b] / cnt[b];
+    const double ua = steady ? ex.steady(y) : ex.velocity(y, t);
+    const double e = std::abs(u - ua) / um;
+    pr.max_error = std::max(pr.max_error, e);
+    sq += e * e;
+    ++rows;
+  }
+  pr.rms_error = rows > 0 ? std::sqrt(sq / rows) : 0.0;
+  return pr;
+}
+
+/// Runs the periodic channel with Scene (poiseuille_scene or a variant).
+template <class Scene = poiseuille_scene>
+poiseuille_result run_poiseuille_periodic(poiseuille_config c) {
+  auto p = c.params;
+  p.rho = c.rho;
+  p.nu = c.mu / c.rho;
+  p.g = vec<2>(c.G / c.rho, 0.0);
+  p.domain.periodic = {true, false};
+  p.domain.lo = vec<2>(0.0, 0.0);
+  p.domain.hi = vec<2>(c.length, c.H);
+  p.time.mode = scheme::time_step_mode::fixed;
+  p.time.dt_fixed = c.dt;
+  p.time.dt_max = c.dt;
+  const auto walls = channel_walls(0.0, c.length, c.H, 8.0 * c.L);
+  simulation<Scene> sim(p, channel_state(c.length, c.H, c.L), &walls);
+  const poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
+  poiseuille_result r;
+  r.particles = sim.state().n_real();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (double tp : c.probe_times) {
+    sim.run_until(tp);
+    r.probes.push_back(profile_error(sim.state(), ex, c.L, sim.time(), false));
+  }
+  sim.run_until(c.t_end);
+  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.end = profile_error(sim.state(), ex, c.L, sim.time(), false);
+  r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true).max_error;
+  {
+    const int ny = static_cast<int>(std::lround(c.H / c.L));
+    double us = 0.0;
+    long cnt = 0;
+    for (index_t i = 0; i < sim.state().n_real(); ++i)
+      if (static_cast<int>(std::floor(sim.state().x()(1, i) / c.L)) == ny / 2) {
+        us += sim.state().u()(0, i);
+        ++cnt;
+      }
+    r.centre_velocity = cnt > 0 ? us / cnt : 0.0;
+  }
+  r.steps = sim.counters().steps;
+  r.guarded = sim.counters().guarded;
+  r.pinned = sim.counters().pinned_components;
+  r.ppe_iterations = sim.counters().ppe_iterations;
+  return r;
+}
+
+}  // namespace mpskit::cases
