@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include "cases/poiseuille.hpp"
+#include "cases/taylor_green.hpp"
 
 using namespace mpskit;
 
@@ -35,5 +37,181 @@ TEST_SUITE("poiseuille") {
     }
     CHECK(r.guarded == 0);
     CHECK(r.pinned == r.steps);  // the periodic channel's PPE has no Dirichlet row: pinned every step
+
+    // The same channel mirrored (flow along y, periodic in y, walls at x = 0 and x = H) to 0.1 s: the same
+    // transient errors (the mirrored lattice is the same problem; only the cell order differs).
+    cases::poiseuille_config cy = c;
+    cy.axis = 1;
+    cy.t_end = 0.1;
+    cy.probe_times = {0.05};
+    const auto ry = cases::run_poiseuille_periodic(cy);
+    std::printf("poiseuille periodic in y: t = %.4f max err %.4f; t = %.4f max err %.4f\n", ry.probes[0].t,
+                ry.probes[0].max_error, ry.end.t, ry.end.max_error);
+    CHECK(ry.probes[0].max_error == doctest::Approx(r.probes[0].max_error).epsilon(1e-3));
+    CHECK(ry.end.max_error == doctest::Approx(r.probes[1].max_error).epsilon(1e-3));
+  }
+}
+
+namespace {
+
+/// The periodic channel of the poiseuille case at rest (g = 0), walls at y = 0 and y = H, flow axis `axis`.
+struct channel_at_rest {
+  scheme::lsmps_params<2> p;
+  geometry::polygon_set<2> walls;
+  scheme::lsmps_state<2> s0;
+  static channel_at_rest make(double length, double H, double L, int axis) {
+    geometry::polygon_mesh<2> m = cases::channel_mesh(0.0, length, H, 8.0 * L);
+    scheme::lsmps_state<2> s = cases::channel_state(length, H, L);
+    if (axis == 1) cases::mirror_channel(m, s);
+    scheme::lsmps_params<2> p;
+    p.rho = 1000.0;
+    p.nu = 1e-4;
+    p.g.setZero();
+    p.domain.periodic = {axis == 0, axis == 1};
+    p.domain.hi[axis] = length;
+    p.domain.hi[1 - axis] = H;
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_fixed = p.time.dt_max = 2.5e-4;
+    p.reorder_every = 0;  // keep the lattice order, to compare with the initial positions
+    return {p, geometry::polygon_set<2>(std::move(m)), std::move(s)};
+  }
+};
+
+/// The channel scene without shifting.
+struct rest_no_shift_scene : cases::poiseuille_scene {
+  using shifting = scheme::no_regularization;
+};
+
+}  // namespace
+
+TEST_SUITE("periodic") {
+  TEST_CASE("periodic: neighbours across the seam use the minimum image, in x and in y, copies included") {
+    for (int axis : {0, 1}) {
+      CAPTURE(axis);
+      const double L = 0.5e-3, length = 5e-3, H = 5e-3;
+      auto c = channel_at_rest::make(length, H, L, axis);
+      simulation<cases::poiseuille_scene> sim(c.p, c.s0, &c.walls);
+      sim.step();  // at rest: positions unchanged, the lists and operators of this step are valid at x
+      const auto& st = sim.state();
+      const auto& nl = sim.neighbours();
+      const index_t n = st.n_real();
+      long across = 0, copies_across = 0;
+      double worst = 0.0;
+      for (index_t i = 0; i < st.size(); ++i)
+        for (const auto jj : nl.neighbours(i)) {
+          const index_t j = static_cast<index_t>(jj);
+          vec<2> d = st.x().col(j) - st.x().col(i);
+          const bool wraps = std::abs(d[axis]) > 0.5 * length;
+          c.p.domain.minimum_image(d);
+          worst = std::max(worst, (nl.displacement(st.x(), i, j) - d).norm());
+          across += wraps;
+          copies_across += wraps && (i >= n || j >= n);
+        }
+      CHECK(worst <= 1e-15);
+      // Particles within R (1 + skin) = 1.86 mm of the seam have partners across it, copies included.
+      CHECK(across > 0);
+      CHECK(copies_across > 0);
+      // Every first-row particle has exactly one copy, also at the seam (the walls overhang the period box).
+      CHECK(st.n_ghost() == 2 * std::lround(length / L));
+      // The LSMPS gradient of the periodic field sin(2π x/P) is as accurate at the seam as inside.
+      Eigen::VectorXd f(st.size());
+      const double k = 2.0 * std::numbers::pi / length;
+      for (index_t i = 0; i < st.size(); ++i) f[i] = std::sin(k * st.x()(axis, i));
+      double err_seam = 0.0, err_inner = 0.0;
+      for (index_t i = 0; i < n; ++i) {
+        const double xa = st.x()(axis, i), xc = st.x()(1 - axis, i);
+        if (xc < 4 * L || xc > H - 4 * L) continue;  // away from the walls
+        const double g = sim.op().gradient(st.x(), nl, i, f, [](index_t) { return true; })[axis];
+        const double e = std::abs(g - k * std::cos(k * xa)) / k;
+        double& slot = xa < 2 * L || xa > length - 2 * L ? err_seam : err_inner;
+        slot = std::max(slot, e);
+      }
+      std::printf("periodic axis %d: %ld pairs across the seam (%ld with copies), gradient error seam %.2e inner %.2e\n",
+                  axis, across, copies_across, err_seam, err_inner);
+      // On a lattice the stencils at the seam are those inside, translated: the same error up to rounding.
+      CHECK(err_seam <= err_inner * (1.0 + 1e-6) + 1e-12);
+      CHECK(err_inner > 0.0);
+    }
+  }
+
+  TEST_CASE("periodic: a periodic box at rest stays at rest, without walls and between walls") {
+    {  // doubly periodic box, no walls
+      scheme::lsmps_params<2> p;
+      p.g.setZero();
+      p.domain.periodic = {true, true};
+      p.domain.hi = vec<2>(0.5, 0.5);
+      p.time.mode = scheme::time_step_mode::fixed;
+      p.time.dt_fixed = p.time.dt_max = 1e-3;
+      p.reorder_every = 0;
+      const auto s0 = cases::channel_state(0.5, 0.5, 0.025);
+      simulation<cases::taylor_green_scene> sim(p, s0);
+      sim.run_until(0.1);
+      const double du = sim.state().u().leftCols(sim.state().n_real()).cwiseAbs().maxCoeff();
+      const double dx = (sim.state().x().leftCols(s0.n_real()) - s0.x()).cwiseAbs().maxCoeff();
+      std::printf("periodic box at rest: %ld steps, max |u| %.2e m/s, max |dx| %.2e m\n", sim.counters().steps, du, dx);
+      CHECK(du <= 1e-12);
+      CHECK(dx <= 1e-12);
+    }
+    for (int axis : {0, 1}) {  // the periodic channel between walls, with and without Tanaka's shifting
+      CAPTURE(axis);
+      auto c = channel_at_rest::make(5e-3, 5e-3, 0.5e-3, axis);
+      const auto run = [&](auto scene_tag, const char* what) {
+        using Scene = decltype(scene_tag);
+        simulation<Scene> sim(c.p, c.s0, &c.walls);
+        sim.run_until(0.05);
+        const double du = sim.state().u().leftCols(sim.state().n_real()).cwiseAbs().maxCoeff();
+        const double dx = (sim.state().x().leftCols(c.s0.n_real()) - c.s0.x()).cwiseAbs().maxCoeff();
+        std::printf("periodic channel at rest (axis %d, %s): %ld steps, max |u| %.2e m/s, max |dx| %.2e m\n", axis,
+                    what, sim.counters().steps, du, dx);
+        CHECK(du <= 1e-12);
+        CHECK(sim.counters().guarded == 0);
+        return dx;
+      };
+      // Without shifting nothing moves. With it the second row from each wall (c = 1.12: the wall copies
+      // add to its packing ratio) is pushed 0.1 L toward the centre within 10 steps (α_S L = 0.01 L per
+      // step) and stays there; the velocity stays exactly 0 (δu = ∇u δx, eq. 91).
+      CHECK(run(rest_no_shift_scene{}, "no shifting") <= 1e-12);
+      CHECK(run(cases::poiseuille_scene{}, "shifting") <= 0.11 * 0.5e-3);
+    }
+  }
+
+  TEST_CASE("periodic: a uniform body force accelerates a translating periodic box uniformly across the seams") {
+    // Every particle starts at u0 and feels g: u = u0 + g t exactly (no velocity gradient, no pressure
+    // gradient), the lattice moves rigidly through both seams and stays wrapped in the period box.
+    scheme::lsmps_params<2> p;
+    p.g = vec<2>(2.0, -1.0);
+    p.nu = 1e-3;
+    p.domain.periodic = {true, true};
+    p.domain.hi = vec<2>(0.5, 0.4);
+    const double L = 0.025, dt = 1e-3;
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_fixed = p.time.dt_max = dt;
+    p.reorder_every = 10;  // cell reorders on: ids, not slots, are compared
+    auto s0 = cases::channel_state(0.5, 0.4, L);
+    const vec<2> u0(1.5, 1.0);
+    for (index_t i = 0; i < s0.n_real(); ++i) s0.u().col(i) = u0;
+    const points<2> x0 = s0.x();
+    simulation<cases::taylor_green_scene> sim(p, s0);
+    sim.run_until(0.3);  // x moves by (0.54, 0.255): every particle crosses a seam at least once
+    const auto& st = sim.state();
+    const double t = sim.time();
+    const vec<2> u_exact = u0 + t * p.g;
+    const vec<2> shift = u0 * t + 0.5 * p.g * t * t;
+    double du = 0.0, dx = 0.0;
+    bool inside = true;
+    for (index_t i = 0; i < st.n_real(); ++i) {
+      du = std::max(du, (st.u().col(i) - u_exact).norm());
+      const auto id = static_cast<index_t>(st.ids()[static_cast<std::size_t>(i)]);
+      vec<2> d = st.x().col(i) - (x0.col(id) + shift);  // ids are the initial slots
+      p.domain.minimum_image(d);
+      dx = std::max(dx, d.norm());
+      for (int a = 0; a < 2; ++a) inside = inside && st.x()(a, i) >= 0.0 && st.x()(a, i) < p.domain.hi[a];
+    }
+    std::printf("periodic translating box: %ld steps, max |u - u0 - g t| %.2e, max position error %.2e m\n",
+                sim.counters().steps, du, dx);
+    CHECK(inside);
+    CHECK(du <= 1e-10 * u_exact.norm());
+    // Explicit Euler with the corrected velocity: x gains Δt u^{k+1}, so Σ Δt² g/2 = g t Δt/2 beyond the exact shift.
+    CHECK(dx <= 0.5 * p.g.norm() * t * dt * (1.0 + 1e-6) + 1e-12);
   }
 }

@@ -55,6 +55,7 @@ struct poiseuille_config {
   double t_end = 0.5;       ///< run end (s)
   double dt = 2.5e-4;       ///< fixed Δt (s): the viscous limit 0.1 L²/ν at L = 0.5 mm (Courant gives 4e-4)
   std::vector<double> probe_times{0.05, 0.1};  ///< times at which the transient is compared with the series
+  int axis = 0;             ///< flow (periodic) axis: 0 = x (walls in y), 1 = y (walls in x; the same channel mirrored)
   scheme::lsmps_params<2> params{};  ///< scheme numbers (rho, nu, g, domain, Δt are set from the above)
 };
 
@@ -83,7 +84,7 @@ struct poiseuille_result {
 /// The channel's walls: two segments y = 0 (normal +y) and y = H (normal −y), extended by `overhang`
 /// beyond the period box [x_lo, x_hi] so that every particle (x wrapped into the box) has the foot of its
 /// perpendicular inside a segment (no copies at segment ends near the periodic seam).
-inline geometry::polygon_set<2> channel_walls(double x_lo, double x_hi, double H, double overhang) {
+inline geometry::polygon_mesh<2> channel_mesh(double x_lo, double x_hi, double H, double overhang) {
   geometry::polygon_mesh<2> m;
   m.vertices.resize(2, 4);
   m.vertices.col(0) = vec<2>(x_lo - overhang, 0.0);
@@ -93,7 +94,7 @@ inline geometry::polygon_set<2> channel_walls(double x_lo, double x_hi, double H
   m.elements.resize(2, 2);
   m.elements.col(0) << 0, 1;  // left normal of +x: +y (fluid above the floor)
   m.elements.col(1) << 2, 3;  // left normal of −x: −y (fluid below the lid)
-  return geometry::polygon_set<2>(std::move(m));
+  return m;
 }
 
 /// Fluid on the lattice ((i + ½) L, (j + ½) L) over [0, length) × [0, H), at rest.
@@ -110,9 +111,20 @@ inline scheme::lsmps_state<2> channel_state(double length, double H, double L) {
   return s;
 }
 
+/// The channel mirrored on the diagonal (flow along y, walls at x = 0 and x = H): coordinates swapped,
+/// elements flipped (a reflection reverses the winding, and the normals must still point to the fluid).
+inline void mirror_channel(geometry::polygon_mesh<2>& m, scheme::lsmps_state<2>& s) {
+  m.vertices.row(0).swap(m.vertices.row(1));
+  for (index_t e = 0; e < m.size(); ++e) m.flip(e);
+  s.x().row(0).swap(s.x().row(1));
+  s.u().row(0).swap(s.u().row(1));
+}
+
 /// Row-averaged profile (rows of width L, as on the initial lattice) against `exact` at time t.
 template <class State>
-poiseuille_probe profile_error(const State& st, const poiseuille_exact& ex, double L, double t, bool steady) {
+poiseuille_probe profile_error(const State& st, const poiseuille_exact& ex, double L, double t, bool steady,
+                               int axis = 0) {
+  const int ay = 1 - axis;  // the cross-channel axis
   const int ny = static_cast<int>(std::lround(ex.H / L));
   std::vector<double> us(ny, 0.0), ys(ny, 0.0);
   std::vector<long> cnt(ny, 0);
@@ -120,12 +132,12 @@ poiseuille_probe profile_error(const State& st, const poiseuille_exact& ex, doub
   pr.t = t;
   const double um = ex.u_max();
   for (index_t i = 0; i < st.n_real(); ++i) {
-    const double y = st.x()(1, i);
+    const double y = st.x()(ay, i);
     const int b = std::clamp(static_cast<int>(std::floor(y / L)), 0, ny - 1);
-    us[b] += st.u()(0, i);
+    us[b] += st.u()(axis, i);
     ys[b] += y;
     ++cnt[b];
-    pr.max_cross = std::max(pr.max_cross, std::abs(st.u()(1, i)) / um);
+    pr.max_cross = std::max(pr.max_cross, std::abs(st.u()(ay, i)) / um);
   }
   double sq = 0.0;
   int rows = 0;
@@ -148,34 +160,41 @@ poiseuille_result run_poiseuille_periodic(poiseuille_config c) {
   auto p = c.params;
   p.rho = c.rho;
   p.nu = c.mu / c.rho;
-  p.g = vec<2>(c.G / c.rho, 0.0);
-  p.domain.periodic = {true, false};
+  if (c.axis != 0 && c.axis != 1) fail("poiseuille_config: axis = ", c.axis, ", accepted 0 or 1");
+  const int ax = c.axis, ay = 1 - c.axis;
+  p.g.setZero();
+  p.g[ax] = c.G / c.rho;
+  p.domain.periodic = {ax == 0, ax == 1};
   p.domain.lo = vec<2>(0.0, 0.0);
-  p.domain.hi = vec<2>(c.length, c.H);
+  p.domain.hi[ax] = c.length;
+  p.domain.hi[ay] = c.H;
   p.time.mode = scheme::time_step_mode::fixed;
   p.time.dt_fixed = c.dt;
   p.time.dt_max = c.dt;
-  const auto walls = channel_walls(0.0, c.length, c.H, 8.0 * c.L);
-  simulation<Scene> sim(p, channel_state(c.length, c.H, c.L), &walls);
+  geometry::polygon_mesh<2> mesh = channel_mesh(0.0, c.length, c.H, 8.0 * c.L);
+  scheme::lsmps_state<2> s0 = channel_state(c.length, c.H, c.L);
+  if (ax == 1) mirror_channel(mesh, s0);
+  const geometry::polygon_set<2> walls(std::move(mesh));
+  simulation<Scene> sim(p, std::move(s0), &walls);
   const poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
   poiseuille_result r;
   r.particles = sim.state().n_real();
   const auto t0 = std::chrono::steady_clock::now();
   for (double tp : c.probe_times) {
     sim.run_until(tp);
-    r.probes.push_back(profile_error(sim.state(), ex, c.L, sim.time(), false));
+    r.probes.push_back(profile_error(sim.state(), ex, c.L, sim.time(), false, ax));
   }
   sim.run_until(c.t_end);
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.end = profile_error(sim.state(), ex, c.L, sim.time(), false);
-  r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true).max_error;
+  r.end = profile_error(sim.state(), ex, c.L, sim.time(), false, ax);
+  r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true, ax).max_error;
   {
     const int ny = static_cast<int>(std::lround(c.H / c.L));
     double us = 0.0;
     long cnt = 0;
     for (index_t i = 0; i < sim.state().n_real(); ++i)
-      if (static_cast<int>(std::floor(sim.state().x()(1, i) / c.L)) == ny / 2) {
-        us += sim.state().u()(0, i);
+      if (static_cast<int>(std::floor(sim.state().x()(ay, i) / c.L)) == ny / 2) {
+        us += sim.state().u()(ax, i);
         ++cnt;
       }
     r.centre_velocity = cnt > 0 ? us / cnt : 0.0;
