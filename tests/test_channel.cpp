@@ -215,3 +215,117 @@ TEST_SUITE("periodic") {
     CHECK(dx <= 0.5 * p.g.norm() * t * dt * (1.0 + 1e-6) + 1e-12);
   }
 }
+
+namespace {
+
+/// The 20 mm pressure-driven channel of issue #8 (walls y = 0 and H, inlet x = 0 at Δp, outlet x = ℓ at 0).
+struct pressure_channel {
+  double H = 0.01, ell = 0.02, L = 0.5e-3, dp = 20.0;
+  geometry::polygon_set<2> walls{cases::channel_mesh(0.0, 0.02, 0.01, 4.0 * 0.5e-3)};
+  static geometry::polygon_set<2> faces(double H, double ell) {
+    geometry::polygon_mesh<2> m;
+    m.vertices.resize(2, 4);
+    m.vertices.col(0) = vec<2>(0.0, H);
+    m.vertices.col(1) = vec<2>(0.0, 0.0);
+    m.vertices.col(2) = vec<2>(ell, 0.0);
+    m.vertices.col(3) = vec<2>(ell, H);
+    m.elements.resize(2, 2);
+    m.elements.col(0) << 0, 1;
+    m.elements.col(1) << 2, 3;
+    return geometry::polygon_set<2>(std::move(m));
+  }
+  boundary::pressure_boundary<2> pb{faces(0.01, 0.02), {20.0, 0.0}, 0.5e-3};
+  scheme::lsmps_params<2> params() const {
+    scheme::lsmps_params<2> p;
+    p.nu = 1e-4;
+    p.g.setZero();
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_fixed = p.time.dt_max = 2.5e-4;
+    p.reorder_every = 0;
+    return p;
+  }
+};
+
+}  // namespace
+
+TEST_SUITE("pressure_boundary") {
+  TEST_CASE("boundary: pressure-boundary particles are placed on the faces with the element normal and pressure") {
+    const auto faces = pressure_channel::faces(0.01, 0.02);
+    const boundary::pressure_boundary<2> pb(faces, {20.0, 0.0}, 0.5e-3);
+    REQUIRE(pb.size() == 40);
+    for (index_t k = 0; k < pb.size(); ++k) {
+      const bool inlet = pb.element(k) == 0;
+      CHECK(pb.x()(0, k) == doctest::Approx(inlet ? 0.0 : 0.02));
+      CHECK(pb.normals()(0, k) == doctest::Approx(inlet ? 1.0 : -1.0));  // into the fluid
+      CHECK(pb.diameters()[k] == doctest::Approx(0.5e-3));
+      CHECK(pb.pressures()[k] == (inlet ? 20.0 : 0.0));
+    }
+    // A segment that is not a multiple of L: equal pieces no longer than L.
+    geometry::polygon_mesh<2> m;
+    m.vertices.resize(2, 2);
+    m.vertices.col(0) = vec<2>(0.0, 0.0);
+    m.vertices.col(1) = vec<2>(1.1e-3, 0.0);
+    m.elements.resize(2, 1);
+    m.elements.col(0) << 0, 1;
+    const boundary::pressure_boundary<2> pb3(geometry::polygon_set<2>(m), {5.0}, 0.5e-3);
+    CHECK(pb3.size() == 3);
+    CHECK(pb3.diameters()[0] == doctest::Approx(1.1e-3 / 3));
+    // 3D: a right triangle with legs 2 L: 4 sub-triangles, the diameters' squares add up to the area.
+    geometry::polygon_mesh<3> t;
+    t.vertices.resize(3, 3);
+    t.vertices.col(0) = vec<3>(0, 0, 0);
+    t.vertices.col(1) = vec<3>(1e-3, 0, 0);
+    t.vertices.col(2) = vec<3>(0, 1e-3, 0);
+    t.elements.resize(3, 1);
+    t.elements.col(0) << 0, 1, 2;
+    const boundary::pressure_boundary<3> pt(geometry::polygon_set<3>(t), {1.0}, 0.5e-3);
+    CHECK(pt.size() == 9);  // ⌈√2 mm / 0.5 mm⌉ = 3 → 9 sub-triangles
+    CHECK(pt.diameters().array().square().sum() == doctest::Approx(0.5e-6));
+    CHECK(pt.normals()(2, 0) == doctest::Approx(1.0));
+  }
+
+  TEST_CASE("boundary: bad pressure-boundary input is refused with a clear message") {
+    const auto faces = pressure_channel::faces(0.01, 0.02);
+    CHECK_THROWS_WITH_AS(boundary::pressure_boundary<2>(faces, {20.0}, 0.5e-3),
+                         doctest::Contains("1 pressures for 2 face elements"), mpskit::error);
+    CHECK_THROWS_AS(boundary::pressure_boundary<2>(faces, {20.0, 0.0}, 0.0), mpskit::error);
+    CHECK_THROWS_AS(boundary::pressure_boundary<2>(faces, {20.0, std::nan("")}, 0.5e-3), mpskit::error);
+    boundary::pressure_params bad;
+    bad.alpha_o = 0.0;
+    CHECK_THROWS_WITH_AS(boundary::pressure_boundary<2>(faces, {20.0, 0.0}, 0.5e-3, bad),
+                         doctest::Contains("alpha_o"), mpskit::error);
+    pressure_channel c;
+    CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_pressure_scene>(c.params(), cases::channel_state(c.ell, c.H, c.L),
+                                                                      &c.walls),
+                         doctest::Contains("no pressure_boundary"), mpskit::error);
+    CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_scene>(c.params(), cases::channel_state(c.ell, c.H, c.L), &c.walls,
+                                                             &c.pb),
+                         doctest::Contains("without boundary::pressure"), mpskit::error);
+  }
+
+  TEST_CASE("boundary: the PPE with Dirichlet pressure boundaries and no free surface gives the linear pressure") {
+    // First step from rest: u′ = 0, so the det F source vanishes and the PPE is Laplace's equation with
+    // p = Δp at the inlet particles, 0 at the outlet and the wall rows: p = Δp (1 − x/ℓ), which LSMPS of
+    // order 2 reproduces exactly; the corrected velocity is Δt G/ρ everywhere.
+    pressure_channel c;
+    const auto s0 = cases::channel_state(c.ell, c.H, c.L);
+    simulation<cases::poiseuille_pressure_scene> sim(c.params(), s0, &c.walls, &c.pb);
+    sim.step();
+    const auto& st = sim.state();
+    const auto& P = st.get<field::pressure>();
+    double ep = 0.0, eu = 0.0;
+    const double G = c.dp / c.ell, u1 = 2.5e-4 * G / 1000.0;
+    for (index_t i = 0; i < st.n_real(); ++i) {
+      ep = std::max(ep, std::abs(P[i] - c.dp * (1.0 - s0.x()(0, i) / c.ell)) / c.dp);
+      // Beside the walls the shifting's δu = ∇u δx (eq. 91) sees the no-slip copies: interior only.
+      if (s0.x()(1, i) > 3.0 * c.L && s0.x()(1, i) < c.H - 3.0 * c.L)
+        eu = std::max(eu, (st.u().col(i) - vec<2>(u1, 0.0)).norm() / u1);
+    }
+    std::printf("pressure boundary first step: max |p - lin|/dp %.2e, max |u - dt G/rho|/(dt G/rho) %.2e, pinned %ld\n", ep,
+                eu, sim.counters().pinned_components);
+    CHECK(ep <= 1e-7);  // solver tolerance 1e-8 (relative residual)
+    CHECK(eu <= 1e-5);
+    CHECK(sim.counters().pinned_components == 0);  // the boundary particles are Dirichlet rows: nothing floats
+    CHECK(st.n_ghost() == 0);  // pressure-boundary scenes end a step with the ghosts cleared (resize path)
+  }
+}

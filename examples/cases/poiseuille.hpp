@@ -10,6 +10,7 @@
 #include <numbers>
 #include <vector>
 
+#include "mpskit/boundary/pressure.hpp"
 #include "mpskit/scene.hpp"
 
 namespace mpskit::cases {
@@ -18,6 +19,12 @@ namespace mpskit::cases {
 /// the periodic channel's PPE has no Dirichlet row, so it is pinned; scheme docs, deviation 1).
 struct poiseuille_scene : lsmps_defaults<2> {
   using surface = mpskit::scheme::no_surface;
+};
+
+/// The pressure-driven channel: pressure inflow/outflow faces at both ends (Tanaka §4.5.2), walls in y.
+struct poiseuille_pressure_scene : lsmps_defaults<2> {
+  using surface = mpskit::scheme::no_surface;
+  using boundary = mpskit::boundary::pressure;
 };
 
 /// Plane Poiseuille start-up from rest (validation-cases.md D1): u(y, t) = G/(2μ) y(H − y) −
@@ -123,7 +130,7 @@ inline void mirror_channel(geometry::polygon_mesh<2>& m, scheme::lsmps_state<2>&
 /// Row-averaged profile (rows of width L, as on the initial lattice) against `exact` at time t.
 template <class State>
 poiseuille_probe profile_error(const State& st, const poiseuille_exact& ex, double L, double t, bool steady,
-                               int axis = 0) {
+                               int axis = 0, double a_lo = -1e300, double a_hi = 1e300) {
   const int ay = 1 - axis;  // the cross-channel axis
   const int ny = static_cast<int>(std::lround(ex.H / L));
   std::vector<double> us(ny, 0.0), ys(ny, 0.0);
@@ -132,6 +139,7 @@ poiseuille_probe profile_error(const State& st, const poiseuille_exact& ex, doub
   pr.t = t;
   const double um = ex.u_max();
   for (index_t i = 0; i < st.n_real(); ++i) {
+    if (st.x()(axis, i) < a_lo || st.x()(axis, i) > a_hi) continue;  // a slice along the flow
     const double y = st.x()(ay, i);
     const int b = std::clamp(static_cast<int>(std::floor(y / L)), 0, ny - 1);
     us[b] += st.u()(axis, i);
@@ -203,6 +211,99 @@ poiseuille_result run_poiseuille_periodic(poiseuille_config c) {
   r.guarded = sim.counters().guarded;
   r.pinned = sim.counters().pinned_components;
   r.ppe_iterations = sim.counters().ppe_iterations;
+  return r;
+}
+
+/// What the pressure-driven run measured (beyond the profile).
+struct poiseuille_pressure_result : poiseuille_result {
+  double pressure_error = 0.0;     ///< RMS over fluid of |p − Δp (1 − x/ℓ)| / Δp at t_end
+  double volume_min = 0.0;         ///< min over steps of Σ V / (H ℓ)
+  double volume_max = 0.0;         ///< max over steps of Σ V / (H ℓ)
+  long inflow = 0, outflow = 0, outflow_behind = 0;  ///< boundary fluxes (particles)
+  double inflow_volume = 0.0, outflow_volume = 0.0;  ///< boundary fluxes (m²)
+  double ledger_error = 0.0;       ///< |V(t_end) − V(0) − (V_in − V_out)| / V(0): the volume ledger closes
+};
+
+/// The same channel driven by a pressure difference Δp = G ℓ between a pressure inflow face at x = 0 and an
+/// outflow face at x = ℓ (Tanaka §4.5.2), no body force. The profile is measured on the slice
+/// |x − ℓ/2| ≤ 2 L (mid-length).
+template <class Scene = poiseuille_pressure_scene>
+poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const boundary::pressure_params& bp = {}) {
+  auto p = c.params;
+  p.rho = c.rho;
+  p.nu = c.mu / c.rho;
+  p.g.setZero();
+  p.time.mode = scheme::time_step_mode::fixed;
+  p.time.dt_fixed = c.dt;
+  p.time.dt_max = c.dt;
+  const double ell = c.length, dp = c.G * ell;
+  const geometry::polygon_set<2> walls(channel_mesh(0.0, ell, c.H, 4.0 * c.L));
+  geometry::polygon_mesh<2> fm;
+  fm.vertices.resize(2, 4);
+  fm.vertices.col(0) = vec<2>(0.0, c.H);
+  fm.vertices.col(1) = vec<2>(0.0, 0.0);  // inlet, left normal +x (into the fluid)
+  fm.vertices.col(2) = vec<2>(ell, 0.0);
+  fm.vertices.col(3) = vec<2>(ell, c.H);  // outlet, left normal −x
+  fm.elements.resize(2, 2);
+  fm.elements.col(0) << 0, 1;
+  fm.elements.col(1) << 2, 3;
+  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {dp, 0.0}, c.L, bp);
+  simulation<Scene> sim(p, channel_state(ell, c.H, c.L), &walls, &pb);
+  const poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
+  poiseuille_pressure_result r;
+  r.particles = sim.state().n_real();
+  const double v0 = c.H * ell;
+  const auto volume = [&] {
+    const auto& st = sim.state();
+    return st.template get<field::volume>().head(st.n_real()).sum();
+  };
+  const double V0 = volume();
+  r.volume_min = r.volume_max = V0 / v0;
+  const auto observe = [&](const auto& s) {
+    (void)s;
+    const double v = volume() / v0;
+    r.volume_min = std::min(r.volume_min, v);
+    r.volume_max = std::max(r.volume_max, v);
+  };
+  const double lo = 0.5 * ell - 2.0 * c.L, hi = 0.5 * ell + 2.0 * c.L;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (double tp : c.probe_times) {
+    sim.run_until(tp, observe);
+    r.probes.push_back(profile_error(sim.state(), ex, c.L, sim.time(), false, 0, lo, hi));
+  }
+  sim.run_until(c.t_end, observe);
+  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.end = profile_error(sim.state(), ex, c.L, sim.time(), false, 0, lo, hi);
+  r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true, 0, lo, hi).max_error;
+  {
+    double us = 0.0;
+    long cnt = 0;
+    for (index_t i = 0; i < sim.state().n_real(); ++i)
+      if (std::abs(sim.state().x()(0, i) - 0.5 * ell) < 2.0 * c.L && std::abs(sim.state().x()(1, i) - 0.5 * c.H) < 0.5 * c.L) {
+        us += sim.state().u()(0, i);
+        ++cnt;
+      }
+    r.centre_velocity = cnt > 0 ? us / cnt : 0.0;
+  }
+  const auto& st = sim.state();
+  const auto& P = st.template get<field::pressure>();
+  double sq = 0.0;
+  for (index_t i = 0; i < st.n_real(); ++i) {
+    const double e = (P[i] - dp * (1.0 - st.x()(0, i) / ell)) / dp;
+    sq += e * e;
+  }
+  r.pressure_error = std::sqrt(sq / std::max<index_t>(1, st.n_real()));
+  const auto& k = sim.counters();
+  r.inflow = k.inflow;
+  r.outflow = k.outflow;
+  r.outflow_behind = k.outflow_behind;
+  r.inflow_volume = k.inflow_volume;
+  r.outflow_volume = k.outflow_volume;
+  r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
+  r.steps = k.steps;
+  r.guarded = k.guarded;
+  r.pinned = k.pinned_components;
+  r.ppe_iterations = k.ppe_iterations;
   return r;
 }
 
