@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
 #include "cases/taylor_green.hpp"
 
@@ -86,6 +87,27 @@ TEST_SUITE("poiseuille") {
     // Issue #8 asks the mid-length profile within 2 % of the steady profile: NOT met (measured 3.0 %; 2.3 %
     // against the series at 0.5 s; docs/channel.md): asserted at the measured level so a regression shows.
     CHECK(r.steady_error <= 0.035);
+  }
+}
+
+TEST_SUITE("poiseuille") {
+  TEST_CASE("channel: 3D pipe periodic along its axis, body force G/rho, against the Szymanski series") {
+    // Issue #8: R = 5 mm, 8 particles per radius (L = 0.625 mm, 1720 particles), period 10 L, 64-facet
+    // cylinder, G = 1000 Pa/m, μ = 0.1 Pa s (u_max = G R²/(4μ) = 0.0625 m/s), Δt = 0.1 L²/ν. CI runs to 0.05 s
+    // only (128 steps, ≈ 90 s of one core with ILUT-BiCGSTAB); the issue's t = 0.2 s is the example's
+    // (`channel --pipe`; docs/channel.md).
+    cases::pipe_config c;
+    c.t_end = 0.05;
+    c.probe_times = {};
+    const auto r = cases::run_pipe(c);
+    REQUIRE(r.probes.size() == 1);
+    std::printf("pipe t = %.4f s: max ring error %.4f rms %.4f; %lld particles, %ld steps, %.0f copies/step, guarded %ld, "
+                "%.1f s\n",
+                r.probes[0].t, r.probes[0].max_error, r.probes[0].rms_error, static_cast<long long>(r.particles), r.steps,
+                r.copies_per_step, r.guarded, r.wall_seconds);
+    // Issue #8: within 3 % of u_max (ring averages over 8 rings of width L). Measured 0.52 %.
+    CHECK(r.probes[0].max_error <= 0.03);
+    CHECK(r.guarded == 0);
   }
 }
 

@@ -40,6 +40,9 @@ struct pressure_params {
   /// the rule r_ip < α_o L_i alone lets a particle passing between two boundary particles (lateral
   /// distance up to L/2 > α_o L) leave the domain (a deviation, docs/channel.md). Counted apart.
   bool remove_behind = true;
+  /// Velocity of a created particle: LSMPS type B at x_l (Tanaka §4.5.2) or, when false, the boundary
+  /// particle's averaged velocity (for comparison; docs/channel.md).
+  bool inflow_lsmps_b = true;
 
   /// Throws mpskit::error listing every bad value.
   void validate() const {
@@ -255,7 +258,7 @@ class pressure_boundary {
       np.p = P_[k];
       np.source = k;
       np.u = u_boundary.col(k);
-      if (!cand.empty()) {
+      if (p_.inflow_lsmps_b && !cand.empty()) {
         // Candidate positions as seen from x_p (minimum image on periodic axes).
         const index_t m = static_cast<index_t>(cand.size());
         xloc.resize(D, m);
