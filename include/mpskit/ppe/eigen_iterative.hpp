@@ -68,8 +68,22 @@ class eigen_iterative {
     r.info = s_.info();
     r.iterations = s_.iterations();
     r.residual = (*A_ * x - b).norm() / bn;
-    // Solvers test their own residual estimates (IDR(s) and GMRES drift from the true one): a true
-    // residual more than 10× the tolerance is reported as non-convergence.
+    // Solvers test their own residual estimates (IDR(s), GMRES and BiCGSTAB drift from the true one). When
+    // the estimate claims success but the true residual is above 10× the tolerance, the solve is restarted
+    // from its iterate (the residual recomputed exactly: "residual replacement"), at most 3 times within the
+    // iteration cap. Measured: the left-null-vector solve of a periodic channel with walls (BiCGSTAB-Jacobi)
+    // stopped after 38 iterations at a true residual of 1.6e-7 against 1e-8 (docs/channel.md).
+    for (int restart = 0; restart < 3 && r.info == Eigen::Success && r.residual > 10.0 * p_.tolerance &&
+                          r.iterations < p_.max_iterations;
+         ++restart) {
+      s_.setMaxIterations(p_.max_iterations - r.iterations);
+      x = s_.solveWithGuess(b, x);
+      r.info = s_.info();
+      r.iterations += s_.iterations();
+      r.residual = (*A_ * x - b).norm() / bn;
+      s_.setMaxIterations(p_.max_iterations);
+    }
+    // A true residual still more than 10× the tolerance is reported as non-convergence.
     if (r.info == Eigen::Success && r.residual > 10.0 * p_.tolerance) r.info = Eigen::NoConvergence;
     if (!x.allFinite()) r.info = Eigen::NumericalIssue;
     return r;

@@ -47,6 +47,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include "mpskit/boundary/pressure.hpp"
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/exec.hpp"
@@ -82,6 +83,20 @@ namespace mpskit::scheme {
 struct no_walls final {};
 /// A scene without free-surface detection (closed or periodic domains: every fluid particle is inner).
 struct no_surface final {};
+/// A scene without pressure boundaries (the default when a scene names no `boundary`).
+struct no_pressure_boundary final {};
+
+namespace detail {
+template <class Scene>
+struct scene_boundary {
+  using type = no_pressure_boundary;
+};
+template <class Scene>
+  requires requires { typename Scene::boundary; }
+struct scene_boundary<Scene> {
+  using type = typename Scene::boundary;
+};
+}  // namespace detail
 
 /// Which velocity a copy carries in the velocity gradient of the det F source (docs/solver.md).
 enum class copy_velocity_in_source {
@@ -190,6 +205,11 @@ struct lsmps_counters {
   long reorders = 0;               ///< cell reorders
   long splits = 0;                 ///< particle splits (Scene::resolution)
   long merges = 0;                 ///< particle merges (Scene::resolution)
+  long inflow = 0;                 ///< particles created by pressure-boundary inflow (Tanaka §4.5.2)
+  long outflow = 0;                ///< particles removed by pressure-boundary outflow (r_ip < α_o L_i)
+  long outflow_behind = 0;         ///< particles removed behind a pressure face (a deviation, docs/channel.md)
+  double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
+  double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
 };
 
 /// Particle state of the LSMPS scheme: core fields + pressure + volume (V = L^D, Tanaka eq. 26; copies
@@ -209,6 +229,8 @@ class lsmps_semi_implicit {
   using surface_type = typename Scene::surface;
   using shifting_type = typename Scene::shifting;
   using walls_type = typename Scene::walls;
+  using boundary_type = typename detail::scene_boundary<Scene>::type;
+  using pressure_boundary_type = boundary::pressure_boundary<Scene::dim>;
   using state_type = lsmps_state<D>;
   using params_type = lsmps_params<D>;
   using geometry_type = geometry::polygon_set<D>;
@@ -221,6 +243,13 @@ class lsmps_semi_implicit {
                 "mpskit: the LSMPS scheme takes resolution::uniform or resolution::split_merge<...>");
   static_assert(!has_resolution || resolution::ResolutionCompatibleWalls<walls_type>,
                 "mpskit: resolution::split_merge cannot run with wall::dummy_layers (Tanaka 2018 §4.5.1)");
+  static constexpr bool has_pressure_boundary = std::is_same_v<boundary_type, boundary::pressure>;
+  static_assert(has_pressure_boundary || std::is_same_v<boundary_type, no_pressure_boundary>,
+                "mpskit: the LSMPS scheme's Scene::boundary is boundary::pressure (Tanaka §4.5.2) or absent");
+  // Both stages read this step's neighbour list and then resize the state: one would run on the other's
+  // stale indices. Not yet combined (issue #9 item 3).
+  static_assert(!(has_resolution && has_pressure_boundary),
+                "mpskit: resolution::split_merge with boundary::pressure is not implemented yet");
   static_assert(ppe::SecondDerivativeOperator<op_type>,
                 "mpskit: the det F source (Tanaka 2018 eq. 63) needs every second derivative separately: "
                 "use LSMPS type A of order >= 2 (classic MPS and order 1 cannot give them)");
@@ -235,8 +264,19 @@ class lsmps_semi_implicit {
 
   /// Takes the numbers, the initial particles (fluid; volumes set, V = L^D) and the walls (required when
   /// the scene names wall::imaginary; must outlive the stepper).
-  lsmps_semi_implicit(const params_type& p, state_type initial, const geometry_type* walls = nullptr)
-      : p_(checked(p)), op_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls) {
+  /// Scenes with `boundary = boundary::pressure` also take the pressure boundary (must outlive the stepper).
+  lsmps_semi_implicit(const params_type& p, state_type initial, const geometry_type* walls = nullptr,
+                      const pressure_boundary_type* pressure_boundary = nullptr)
+      : p_(checked(p)), op_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls),
+        pb_(pressure_boundary) {
+    if constexpr (has_pressure_boundary) {
+      if (p_.pressure == pressure_operator::nested_gradient)
+        fail("lsmps_semi_implicit: pressure = nested_gradient is not implemented with boundary::pressure");
+      if (!pb_) fail("lsmps_semi_implicit: the scene has boundary::pressure but no pressure_boundary was given");
+      if (pb_->size() == 0) fail("lsmps_semi_implicit: the pressure boundary has no particles");
+    } else {
+      if (pb_) fail("lsmps_semi_implicit: a pressure boundary given to a scene without boundary::pressure");
+    }
     solver_.set_params(p_.solver);
     adjoint_solver_.set_params(p_.solver);
     if constexpr (has_resolution) {
@@ -271,6 +311,7 @@ class lsmps_semi_implicit {
   const op_type& op() const { return op_; }               ///< operators of the last step
   const search::neighbour_list<D>& neighbours() const { return nl_; }  ///< list of the last step
   const ppe::solve_report& last_solve() const { return last_solve_; }  ///< last PPE solve
+  const boundary::pressure_flux& last_flux() const { return last_flux_; }  ///< pressure-boundary fluxes of the last step
   const Eigen::VectorXd& packing_ratio() const { return c_pack_; }    ///< c of the last step (real + copies)
   const points<D>& normals() const { return normal_; }                ///< normals of the last step
   const time_step_controller& time_step() const { return dt_ctrl_; }  ///< Δt controller
@@ -309,6 +350,8 @@ class lsmps_semi_implicit {
 
     // 2. Imaginary copies (ghost range).
     if constexpr (has_walls) make_copies();
+    nc_ = s_.size();  // copies are [n, nc_); pressure-boundary particles [nc_, nt)
+    if constexpr (has_pressure_boundary) add_boundary_particles();
     const index_t nt = s_.size();
     if constexpr (!has_walls) normal_.setZero(D, nt);
     sizes_from_volumes();
@@ -325,7 +368,7 @@ class lsmps_semi_implicit {
     surface::packing_ratio(exec::par{}, x, L_, nl_, [](index_t) { return true; }, is_copy, p_.packing, c_pack_);
     c_.isolated += static_cast<long>(surface::isolated_flags(c_pack_.head(n), p_.packing.alpha_c, flags));
     for (index_t i = 0; i < n; ++i) excluded_[static_cast<std::size_t>(i)] = (flags[static_cast<std::size_t>(i)] & flag::isolated) != 0;
-    for (index_t k = n; k < nt; ++k) excluded_[static_cast<std::size_t>(k)] = excluded_[static_cast<std::size_t>(parent(k))];
+    for (index_t k = n; k < nc_; ++k) excluded_[static_cast<std::size_t>(k)] = excluded_[static_cast<std::size_t>(parent(k))];
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
 
     // 5. Normals (real fluid; copies keep the wall's) and surface flags; copies inherit the parent's flag.
@@ -336,7 +379,7 @@ class lsmps_semi_implicit {
       surface::geometric(exec::par{}, x, L_, nl_, participates, normal_, p_.surface, surface_, wanted, walls_);
       for (index_t i = 0; i < n; ++i)
         if (!participates(i)) surface_[static_cast<std::size_t>(i)] = 0;
-      for (index_t k = n; k < nt; ++k) surface_[static_cast<std::size_t>(k)] = surface_[static_cast<std::size_t>(parent(k))];
+      for (index_t k = n; k < nc_; ++k) surface_[static_cast<std::size_t>(k)] = surface_[static_cast<std::size_t>(parent(k))];
       for (index_t i = 0; i < nt; ++i)
         if (surface_[static_cast<std::size_t>(i)]) flags[static_cast<std::size_t>(i)] |= flag::surface;
     }
@@ -344,7 +387,7 @@ class lsmps_semi_implicit {
     // 6. LSMPS moments at x^k; copies carry the Neumann constraint.
     if (has_walls && p_.copy_row == copy_row_kind::constrained_poisson) {
       constrained_.assign(static_cast<std::size_t>(nt), 0);
-      for (index_t k = n; k < nt; ++k) constrained_[static_cast<std::size_t>(k)] = 1;
+      for (index_t k = n; k < nc_; ++k) constrained_[static_cast<std::size_t>(k)] = 1;
       op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, op::neumann_constraint<D>{&normal_, &constrained_},
                   participates);
     } else {
@@ -356,6 +399,8 @@ class lsmps_semi_implicit {
         ++c_.degenerate;
       }
 
+    // Pressure-boundary particles: u by neighbour averaging of the fluid's u^k (Tanaka §4.5.2, as walls).
+    if constexpr (has_pressure_boundary) boundary_velocities(s_.u(), s_.u());
     // 7. Explicit prediction; copies hold the wall velocity.
     points<D>& u = s_.u();
     ut_ = u;
@@ -367,7 +412,7 @@ class lsmps_semi_implicit {
       ut_.col(i) = u.col(i) + dt * acc;
     });
     // Copies: u′_w = w-weighted average of the participating fluid neighbours' u′ (§4.5.1).
-    for_each_particle(exec::par{}, nt - n, [&](index_t k0) {
+    for_each_particle(exec::par{}, nc_ - n, [&](index_t k0) {
       const index_t k = n + k0;
       vec<D> sum = vec<D>::Zero();
       double wsum = 0.0;
@@ -383,6 +428,8 @@ class lsmps_semi_implicit {
       if (p_.copy_neumann == copy_neumann_velocity::parent) ut_.col(k) = ut_.col(parent(k));
     });
 
+    // Pressure-boundary particles: u′ by neighbour averaging of the fluid's u′ (enters ∇u′ of the source).
+    if constexpr (has_pressure_boundary) boundary_velocities(ut_, ut_);
     // 8. PPE.
     solve_pressure(dt);
 
@@ -406,6 +453,8 @@ class lsmps_semi_implicit {
     if (p_.domain.any_periodic())
       for (index_t i = 0; i < n; ++i) s_.x().col(i) = p_.domain.wrap(s_.x().col(i));
     if constexpr (has_resolution) resolve_sizes();
+    // 13. Pressure-boundary outflow and inflow (Tanaka §4.5.2) through the state's resize path.
+    if constexpr (has_pressure_boundary) exchange_through_boundary();
     t_ += dt;
     ++c_.steps;
     check_finite();
@@ -433,6 +482,7 @@ class lsmps_semi_implicit {
   /// "particle i (id …)" or "imaginary copy i of particle p (id …)" for error messages.
   std::string describe(index_t i) const {
     if (i < s_.n_real()) return mpskit::detail::concat("particle ", i, " (id ", id_of(i), ")");
+    if (i >= nc_) return mpskit::detail::concat("pressure-boundary particle ", i - nc_);
     const index_t par = parent(i);
     return mpskit::detail::concat("imaginary copy ", i, " of particle ", par, " (id ", id_of(par), ")");
   }
@@ -454,6 +504,7 @@ class lsmps_semi_implicit {
     if constexpr (has_walls) {
       if (p_.thin_walls) {
         wall::wall_visibility<D> vis{walls_, &s_.x(), s_.n_real(), &copies_, &p_.domain};
+        vis.other_ghosts = s_.size() - s_.n_real() - static_cast<index_t>(copies_.size());
         vis.prepare(exec::par{}, p_.op.re_ratio * L_.maxCoeff() * (1.0 + p_.skin));
         nl_.build(exec::par{}, s_.x(), search::per_particle_radius{&L_, p_.op.re_ratio}, {p_.skin, p_.domain}, vis);
         ++c_.list_builds;
@@ -493,6 +544,74 @@ class lsmps_semi_implicit {
     }
   }
 
+  /// Pressure-boundary particles (Tanaka §4.5.2, placed in advance) appended as ghosts after the copies:
+  /// kind pressure_boundary, V = L_p^D, p = P_b, normal n_p; velocities are set after the list build.
+  void add_boundary_particles() {
+    const index_t nb = pb_->size();
+    const index_t first = s_.add_ghosts(nb, ghost_role::pressure);
+    auto& V = s_.template get<field::volume>();
+    auto& pres = s_.template get<field::pressure>();
+    normal_.conservativeResize(D, first + nb);
+    for (index_t k = 0; k < nb; ++k) {
+      const index_t g = first + k;
+      s_.x().col(g) = pb_->x().col(k);
+      s_.u().col(g).setZero();
+      s_.kinds()[static_cast<std::size_t>(g)] = kind::pressure_boundary;
+      V[g] = std::pow(pb_->diameters()[k], D);
+      pres[g] = pb_->pressures()[k];
+      normal_.col(g) = pb_->normals().col(k);
+    }
+  }
+
+  /// dst's pressure-boundary columns from src's fluid columns (neighbour averaging, boundary/pressure.hpp).
+  void boundary_velocities(const points<D>& src, points<D>& dst) {
+    const index_t n = s_.n_real();
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    for_each_particle(exec::par{}, pb_->size(), [&](index_t k) {
+      dst.col(nc_ + k) = pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, src, participates);
+    });
+  }
+
+  /// Step end (Tanaka §4.5.2): outflow removal and inflow creation decided at the moved positions with the
+  /// boundary velocities averaged from the corrected fluid velocities; ghosts cleared, then one remove and
+  /// one append through the state's resize path; counted as boundary fluxes.
+  void exchange_through_boundary() {
+    const index_t n = s_.n_real(), nb = pb_->size();
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    points<D> ub(D, nb);
+    for (index_t k = 0; k < nb; ++k)
+      ub.col(k) = pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, s_.u(), participates);
+    const auto& V = s_.template get<field::volume>();
+    std::vector<std::uint8_t> remove(static_cast<std::size_t>(n), 0);
+    boundary::pressure_flux flux;
+    pb_->mark_outflow(s_.x(), L_, n, nc_, ub, nl_, remove, flux, V);
+    std::vector<boundary::inflow_particle<D>> born;
+    pb_->find_inflow(s_.x(), s_.u(), L_, n, nc_, ub, nl_, remove,
+                     [&](index_t j) { return j < nc_ && participates(j); }, p_.op, born);
+    s_.clear_ghosts();
+    if (flux.outflow + flux.behind > 0) s_.remove(remove);
+    if (!born.empty()) {
+      const index_t first = s_.append(static_cast<index_t>(born.size()), kind::fluid);
+      auto& Vn = s_.template get<field::volume>();
+      auto& pres = s_.template get<field::pressure>();
+      for (std::size_t b = 0; b < born.size(); ++b) {
+        const index_t i = first + static_cast<index_t>(b);
+        s_.x().col(i) = born[b].x;
+        s_.u().col(i) = born[b].u;
+        Vn[i] = std::pow(born[b].L, D);
+        pres[i] = born[b].p;
+        flux.inflow_volume += Vn[i];
+      }
+      flux.inflow = static_cast<index_t>(born.size());
+    }
+    c_.inflow += static_cast<long>(flux.inflow);
+    c_.outflow += static_cast<long>(flux.outflow);
+    c_.outflow_behind += static_cast<long>(flux.behind);
+    c_.inflow_volume += flux.inflow_volume;
+    c_.outflow_volume += flux.outflow_volume;
+    last_flux_ = flux;
+  }
+
   /// Tanaka's shifting (eqs. 93–100) from this step's list at x^k; δu = ∇u δx (eq. 91) with the corrected
   /// velocities' LSMPS gradient (copies at the wall velocity). Surface particles and particles with a wall
   /// copy (within α_w L of a wall) shift tangentially only (eq. 99).
@@ -511,11 +630,21 @@ class lsmps_semi_implicit {
       tangential[static_cast<std::size_t>(i)] = surface_[static_cast<std::size_t>(i)];
     }
     wall_normal_.setZero(D, n);
-    for (index_t k = n; k < nt; ++k) {  // within α_w L of a wall: tangential to the wall too (eq. 99)
+    for (index_t k = n; k < nc_; ++k) {  // within α_w L of a wall: tangential to the wall too (eq. 99)
       const index_t i = parent(k);
       tangential[static_cast<std::size_t>(i)] = 1;
       if (wall_normal_.col(i).isZero(0.0)) wall_normal_.col(i) = normal_.col(k);
     }
+    // Within 2 L_i of a pressure-boundary particle: no shifting (a deviation; Tanaka is silent). Unrestricted,
+    // it pushed the particles beside an outflow face into the gaps that removals leave (the 20 mm channel
+    // failed at step 227); tangential to the face (eq. 99 with n_p), it pushed them between the boundary
+    // particles, past the outflow test r_ip < α_o L, and the channel failed at step 142.
+    for (index_t k = nc_; k < nt; ++k)
+      for (const auto jj : nl_.neighbours(k)) {
+        const index_t i = static_cast<index_t>(jj);
+        if (i >= n || nl_.displacement(x, k, i).squaredNorm() >= 4.0 * L_[i] * L_[i]) continue;
+        active[static_cast<std::size_t>(i)] = 0;
+      }
     const auto rep = regularize::tanaka_shift_displacement(exec::par{}, x, L_, nl_, participates, grad_c, normal_,
                                                            tangential, active, p_.shift, dx_, &wall_normal_);
     c_.shift_limited += static_cast<long>(rep.limited);
@@ -547,6 +676,7 @@ class lsmps_semi_implicit {
       // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
       // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step).
       const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
+      if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
       if (participates(i) && (!surface_[static_cast<std::size_t>(i)] || copy_unknown)) {
         unk_[static_cast<std::size_t>(i)] = static_cast<index_t>(rows_.size());
         rows_.push_back(i);
@@ -554,6 +684,7 @@ class lsmps_semi_implicit {
     }
     for (index_t i = 0; i < nt; ++i)
       if (unk_[static_cast<std::size_t>(i)] == npos) pres[i] = 0.0;
+    if constexpr (has_pressure_boundary) pres.segment(nc_, nt - nc_) = pb_->pressures();
     const index_t m = static_cast<index_t>(rows_.size());
     if (m == 0) return;
 
@@ -561,13 +692,17 @@ class lsmps_semi_implicit {
     // the surface of a lattice at rest has c = 0.90 < c_min, so eq. 62 compressed it every step (measured:
     // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle closer
     // than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
+    // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on the
+    // face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq. 62
+    // pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at t = 0.02 s).
     near_surface_.assign(static_cast<std::size_t>(nt), 0);
-    if constexpr (has_surface) {
+    if constexpr (has_surface || has_pressure_boundary) {
       for_each_particle(exec::par{}, n, [&](index_t i) {
         const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
         bool near = false;
         nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
-          if (j < n && surface_[static_cast<std::size_t>(j)] && r2 < reach * reach) near = true;
+          const bool open = (j < n && surface_[static_cast<std::size_t>(j)]) || j >= nc_;
+          if (open && r2 < reach * reach) near = true;
         });
         near_surface_[static_cast<std::size_t>(i)] = near;
       });
@@ -576,11 +711,11 @@ class lsmps_semi_implicit {
     for (int a = 0; a < D; ++a) {
       comp_[a] = ut_.row(a).transpose();
       if (p_.copy_velocity == copy_velocity_in_source::wall)
-        for (index_t k = n; k < nt; ++k) comp_[a][k] = s_.u()(a, k);
+        for (index_t k = n; k < nc_; ++k) comp_[a][k] = s_.u()(a, k);
     }
     // Neumann data at copies: ∂p/∂n = ρ (u′_w − u_wall)·n / Δt (eq. 83; n toward the fluid).
     dpdn_.setZero(nt);
-    for (index_t k = n; k < nt; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
+    for (index_t k = n; k < nc_; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
 
     // Each row as (particle column, coefficient) entries, sorted by particle, plus its right-hand side.
     // Each row in a reused row_entries (capacity kept across steps), merged and sorted by particle.
@@ -621,7 +756,10 @@ class lsmps_semi_implicit {
       row.merge();
       bool dir = false;
       for_each_entry(row, i, [&](index_t j, double a) {
-        if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) dir = true;  // a known (p = 0) neighbour
+        if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) {
+          dir = true;           // a known neighbour: surface (p = 0) or pressure boundary (p = P_b)
+          b_[r] -= a * pres[j];  // its value moves to the right-hand side
+        }
       });
       dirichlet_[static_cast<std::size_t>(r)] = dir;
     });
@@ -799,6 +937,9 @@ class lsmps_semi_implicit {
   solver_type solver_, adjoint_solver_;
   state_type s_;
   const geometry_type* walls_ = nullptr;
+  const pressure_boundary_type* pb_ = nullptr;
+  index_t nc_ = 0;  ///< end of the copies in the ghost range (pressure-boundary particles follow)
+  boundary::pressure_flux last_flux_{};
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;

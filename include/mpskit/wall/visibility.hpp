@@ -35,6 +35,7 @@ struct wall_visibility {
   const std::vector<imaginary_copy<D>>* copies = nullptr;  ///< ghost k = column n_real + k (normals, L′)
   const search::domain<D>* dom = nullptr;  ///< periodic axes (minimum image of x_j − x_i), optional
   double pull = 1e-6;                      ///< a copy's end is moved pull·L′ along its normal (range (0, 0.01])
+  index_t other_ghosts = 0;  ///< ghosts after the copies, tested at their own positions (pressure-boundary particles)
   std::vector<double> clearance{};          ///< lower bounds of the wall distance per column (prepare())
 
   /// Checks the sizes (copies must match the ghost range) and computes clearances: the distance of each
@@ -46,9 +47,9 @@ struct wall_visibility {
     if (n_real < 0 || n_real > x->cols())
       fail("wall::wall_visibility: n_real = ", n_real, ", accepted range [0, ", x->cols(), "]");
     const index_t ghosts = x->cols() - n_real;
-    if (ghosts > 0 && (!copies || static_cast<index_t>(copies->size()) != ghosts))
+    if (ghosts > 0 && (other_ghosts < 0 || (copies ? static_cast<index_t>(copies->size()) : 0) + other_ghosts != ghosts))
       fail("wall::wall_visibility: ", ghosts, " ghost columns but ", copies ? copies->size() : 0,
-           " imaginary copies (copies must describe the ghost range)");
+           " imaginary copies and ", other_ghosts, " other ghosts (they must describe the ghost range)");
     if (!(pull > 0.0 && pull <= 0.01)) fail("wall::wall_visibility: pull = ", pull, ", accepted range (0, 0.01]");
     if (!(max_distance >= 0.0)) fail("wall::wall_visibility: max_distance = ", max_distance, ", accepted range [0, inf]");
     clearance.assign(static_cast<std::size_t>(x->cols()), 0.0);
@@ -91,7 +92,7 @@ struct wall_visibility {
 
  private:
   vec<D> end_point(index_t i, const vec<D>& xi) const {
-    if (i < n_real || !copies) return xi;
+    if (i < n_real || !copies || i - n_real >= static_cast<index_t>(copies->size())) return xi;
     const imaginary_copy<D>& c = (*copies)[static_cast<std::size_t>(i - n_real)];
     return xi + pull * c.L * c.normal;
   }

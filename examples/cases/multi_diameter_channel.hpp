@@ -1,0 +1,134 @@
+#pragma once
+// Multi-diameter channel (Tanaka 2018 §5.3, validation-cases.md A3) with pressure boundaries: a 30 mm wide
+// section, a linear taper (our reading: the shape is not in the text) and a 10 mm section, 30 mm each,
+// 100 Pa at the inlet, 0 Pa at the outlet, μ = 0.001 Pa s, no body force; single resolution.
+// Measured: the volume balance Q_in − Q_out − dV/dt with Q the velocity fluxes ∫ u_x dy through the slabs
+// next to the faces (not the particle fluxes: the particle ledger closes by construction).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "mpskit/boundary/pressure.hpp"
+#include "mpskit/scene.hpp"
+
+namespace mpskit::cases {
+
+struct multi_diameter_scene : lsmps_defaults<2> {
+  using surface = mpskit::scheme::no_surface;
+  using boundary = mpskit::boundary::pressure;
+};
+
+struct multi_diameter_config {
+  double L = 1e-3;          ///< diameter (m); CI 1 mm, the paper 0.25 mm
+  double wide = 0.03, narrow = 0.01, section = 0.03;  ///< widths and the length of each section (m)
+  double p_in = 100.0, p_out = 0.0;  ///< face pressures (Pa)
+  double rho = 1000.0, mu = 0.001;   ///< fluid
+  double t_end = 0.3;       ///< run end (s)
+  double window = 0.1;      ///< the balance is averaged over the last `window` seconds
+  scheme::lsmps_params<2> params{};
+};
+
+struct multi_diameter_result {
+  double balance = 0.0;     ///< |mean(Q_in − Q_out − dV/dt)| / mean(Q_in) over the window
+  double q_in = 0.0, q_out = 0.0, dvdt = 0.0;  ///< window means (m²/s)
+  long steps = 0, inflow = 0, outflow = 0, outflow_behind = 0, guarded = 0;
+  double ledger_error = 0.0, wall_seconds = 0.0;
+  index_t particles = 0;
+};
+
+/// The walls (y = ±wide/2 → ±narrow/2 over the taper, extended 4 L beyond both faces) and the faces.
+inline geometry::polygon_mesh<2> multi_diameter_walls(const multi_diameter_config& c) {
+  const double a = 0.5 * c.wide, b = 0.5 * c.narrow, s = c.section, e = 4.0 * c.L;
+  geometry::polygon_mesh<2> m;
+  m.vertices.resize(2, 8);
+  m.vertices.col(0) = vec<2>(-e, -a);  // bottom, left to right: left normal +y (into the fluid)
+  m.vertices.col(1) = vec<2>(s, -a);
+  m.vertices.col(2) = vec<2>(2 * s, -b);
+  m.vertices.col(3) = vec<2>(3 * s + e, -b);
+  m.vertices.col(4) = vec<2>(3 * s + e, b);  // top, right to left
+  m.vertices.col(5) = vec<2>(2 * s, b);
+  m.vertices.col(6) = vec<2>(s, a);
+  m.vertices.col(7) = vec<2>(-e, a);
+  m.elements.resize(2, 6);
+  m.elements.col(0) << 0, 1;
+  m.elements.col(1) << 1, 2;
+  m.elements.col(2) << 2, 3;
+  m.elements.col(3) << 4, 5;
+  m.elements.col(4) << 5, 6;
+  m.elements.col(5) << 6, 7;
+  return m;
+}
+
+template <class Scene = multi_diameter_scene>
+multi_diameter_result run_multi_diameter(multi_diameter_config c) {
+  const double a = 0.5 * c.wide, b = 0.5 * c.narrow, s = c.section, ell = 3 * s, L = c.L;
+  auto p = c.params;
+  p.rho = c.rho;
+  p.nu = c.mu / c.rho;
+  p.g.setZero();
+  p.time.dt_max = 1e-3;  // adaptive, piecewise constant (Courant α_C = 0.1)
+  const geometry::polygon_set<2> walls(multi_diameter_walls(c));
+  geometry::polygon_mesh<2> fm;
+  fm.vertices.resize(2, 4);
+  fm.vertices.col(0) = vec<2>(0.0, a);
+  fm.vertices.col(1) = vec<2>(0.0, -a);  // inlet, normal +x
+  fm.vertices.col(2) = vec<2>(ell, -b);
+  fm.vertices.col(3) = vec<2>(ell, b);   // outlet, normal −x
+  fm.elements.resize(2, 2);
+  fm.elements.col(0) << 0, 1;
+  fm.elements.col(1) << 2, 3;
+  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, L);
+  std::vector<vec<2>> pts;
+  for (int i = 0; (i + 0.5) * L < ell; ++i)
+    for (int j = -static_cast<int>(std::ceil(a / L)); (j + 0.5) * L < a; ++j) {
+      const vec<2> x((i + 0.5) * L, (j + 0.5) * L);
+      if (walls.signed_distance(x) >= 0.5 * L * (1.0 - 1e-12)) pts.push_back(x);
+    }
+  scheme::lsmps_state<2> s0(static_cast<index_t>(pts.size()));
+  for (std::size_t q = 0; q < pts.size(); ++q) s0.x().col(static_cast<index_t>(q)) = pts[q];
+  s0.get<field::volume>().setConstant(L * L);
+  simulation<Scene> sim(p, std::move(s0), &walls, &pb);
+  multi_diameter_result r;
+  r.particles = sim.state().n_real();
+  const auto volume = [&] {
+    const auto& st = sim.state();
+    return st.template get<field::volume>().head(st.n_real()).sum();
+  };
+  // Velocity flux through a slab of width w = 2 L at x: Σ V u_x / w over the particles in it.
+  const auto flux = [&](double x0) {
+    const auto& st = sim.state();
+    const auto& V = st.template get<field::volume>();
+    double q = 0.0;
+    for (index_t i = 0; i < st.n_real(); ++i)
+      if (std::abs(st.x()(0, i) - x0) < L) q += V[i] * st.u()(0, i);
+    return q / (2.0 * L);
+  };
+  const double V0 = volume();
+  double qin = 0.0, qout = 0.0, v_begin = 0.0, t_begin = 0.0;
+  long samples = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  sim.run_until(c.t_end - c.window);
+  v_begin = volume();
+  t_begin = sim.time();
+  sim.run_until(c.t_end, [&](const auto&) {
+    qin += flux(3.0 * L);
+    qout += flux(ell - 3.0 * L);
+    ++samples;
+  });
+  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.q_in = qin / std::max(1L, samples);
+  r.q_out = qout / std::max(1L, samples);
+  r.dvdt = (volume() - v_begin) / (sim.time() - t_begin);
+  r.balance = std::abs(r.q_in - r.q_out - r.dvdt) / std::abs(r.q_in);
+  const auto& k = sim.counters();
+  r.steps = k.steps;
+  r.inflow = k.inflow;
+  r.outflow = k.outflow;
+  r.outflow_behind = k.outflow_behind;
+  r.guarded = k.guarded;
+  r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
+  return r;
+}
+
+}  // namespace mpskit::cases

@@ -1,0 +1,70 @@
+// Plane Poiseuille flow with Tanaka 2018's LSMPS scheme (§5.2, §4.5.2; issue #8): the channel periodic in x
+// driven by the body force G/ρ, and the same channel driven by pressure inflow/outflow boundaries, against
+// the start-up series (validation-cases.md D1).
+// Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]
+//   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
+//   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
+//   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s (Tanaka's single resolution
+//            is L = 0.125 mm: pass it as L; expect hours on one core).
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "cases/pipe.hpp"
+#include "cases/poiseuille.hpp"
+
+int main(int argc, char** argv) {
+  mpskit::cases::poiseuille_config c;
+  c.length = 0.02;
+  bool periodic_only = false;
+  int positional = 0;
+  if (argc > 1 && !std::strcmp(argv[1], "--pipe")) {
+    mpskit::cases::pipe_config pc;
+    pc.probe_times = {0.05};
+    if (argc > 2) pc.t_end = std::atof(argv[2]);
+    const auto r = mpskit::cases::run_pipe(pc);
+    std::printf("pipe R = %.1f mm, %d particles per radius (%lld particles, %ld steps, %.1f s wall):\n", pc.R * 1e3,
+                pc.per_radius, static_cast<long long>(r.particles), r.steps, r.wall_seconds);
+    for (const auto& pr : r.probes)
+      std::printf("  t = %.3f s: max ring |u - series| / u_max = %.4f (RMS %.4f)\n", pr.t, pr.max_error, pr.rms_error);
+    return 0;
+  }
+  for (int a = 1; a < argc; ++a) {
+    if (!std::strcmp(argv[a], "--full")) {
+      c.length = 0.1;
+    } else if (!std::strcmp(argv[a], "--periodic-only")) {
+      periodic_only = true;
+    } else if (positional == 0) {
+      c.L = std::atof(argv[a]);
+      c.dt = 2.5e-4 * (c.L / 0.5e-3) * (c.L / 0.5e-3);  // the viscous limit 0.1 L²/ν scales with L²
+      ++positional;
+    } else {
+      c.t_end = std::atof(argv[a]);
+    }
+  }
+  const mpskit::cases::poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
+  std::printf("Poiseuille: H = %.1f mm, G = %.0f Pa/m, mu = %.2f Pa s, L = %.3f mm, dt = %.2e s, u_max = %.4f m/s\n",
+              c.H * 1e3, c.G, c.mu, c.L * 1e3, c.dt, ex.u_max());
+  {
+    mpskit::cases::poiseuille_config cp = c;
+    cp.length = 0.005;  // any period > 2 R_e L (1 + skin) gives the same profile
+    const auto r = mpskit::cases::run_poiseuille_periodic(cp);
+    std::printf("periodic in x, body force G/rho (%lld particles, %ld steps, %.1f s wall):\n",
+                static_cast<long long>(r.particles), r.steps, r.wall_seconds);
+    for (const auto& pr : r.probes)
+      std::printf("  t = %.3f s: max |u - series| / u_max = %.4f\n", pr.t, pr.max_error);
+    std::printf("  t = %.3f s: vs series %.4f, vs steady %.4f, centre %.5f m/s\n", r.end.t, r.end.max_error,
+                r.steady_error, r.centre_velocity);
+  }
+  if (periodic_only) return 0;
+  const auto r = mpskit::cases::run_poiseuille_pressure(c);
+  std::printf("pressure boundaries, %.0f mm long, dp = %.1f Pa (%lld particles initially, %ld steps, %.1f s wall):\n",
+              c.length * 1e3, c.G * c.length, static_cast<long long>(r.particles), r.steps, r.wall_seconds);
+  for (const auto& pr : r.probes)
+    std::printf("  t = %.3f s: mid-length max |u - series| / u_max = %.4f\n", pr.t, pr.max_error);
+  std::printf("  t = %.3f s: vs series %.4f, vs steady %.4f, centre %.5f m/s; RMS |p - linear| / dp = %.4f\n", r.end.t,
+              r.end.max_error, r.steady_error, r.centre_velocity, r.pressure_error);
+  std::printf("  inflow %ld, outflow %ld (+%ld behind a face), volume in [%.4f, %.4f] of H l, ledger error %.1e\n",
+              r.inflow, r.outflow, r.outflow_behind, r.volume_min, r.volume_max, r.ledger_error);
+  return 0;
+}
