@@ -2,7 +2,8 @@
 // Hydrostatic tank with polygon walls for Tanaka's LSMPS scheme (issue #7, label hydrostatic_polygon): a tank
 // with an inclined wall and a concave corner (cases/polygon_tank.hpp), fluid at rest. Measured as issue #4
 // states: depth from the mean height of surface-flagged fluid particles, pressure averaged over t in
-// [t_begin, t_end]·√(H/g) and binned by depth (bin = L), wall copies included; speeds at the end; guard
+// [t_begin, t_end]·√(H/g) and binned by depth (bin = L, depth from the mean height of the surface-flagged
+// particles), wall copies included; speeds at the end; guard
 // activations (particles through a wall) counted.
 #include <algorithm>
 #include <chrono>
@@ -70,11 +71,20 @@ hydrostatic_polygon_result run_hydrostatic_polygon(hydrostatic_polygon_config<Sc
     const auto& st = s.state();
     copies += st.n_ghost();
     if (s.time() < cfg.t_begin * T) return;
-    // Depth from the level H0 of the tank (the measured surface height is compared at the end).
+    // Depth from the mean height of the surface-flagged fluid particles (issue #4's measure; p = 0 is imposed
+    // there, so this is the level of the discrete Dirichlet condition, L/2 below the free plane H).
+    double hs = 0.0;
+    long nsurf = 0;
+    for (index_t i = 0; i < st.n_real(); ++i)
+      if (st.flags()[static_cast<std::size_t>(i)] & flag::surface) {
+        hs += st.x()(D - 1, i);
+        ++nsurf;
+      }
+    hs = nsurf > 0 ? hs / static_cast<double>(nsurf) : H - 0.5 * L;
     const auto& P = st.template get<field::pressure>();
     for (index_t i = 0; i < st.size(); ++i) {
-      const double d = H - st.x()(D - 1, i);
-      const int b = static_cast<int>(std::floor(d / L));
+      const double d = hs - st.x()(D - 1, i);
+      const int b = static_cast<int>(std::floor(d / L + 0.5));  // bins centred on the layers
       if (b < 0 || b >= nbins) continue;
       psum[b] += P[i];
       dsum[b] += d;
@@ -107,7 +117,7 @@ hydrostatic_polygon_result run_hydrostatic_polygon(hydrostatic_polygon_config<Sc
     r.bin_depth.push_back(dbar);
     r.bin_pressure.push_back(pbar);
     r.bin_samples.push_back(cnt[b]);
-    if (dbar > 2.0 * L) r.max_bin_error = std::max(r.max_bin_error, std::abs(pbar - rho * g * dbar) / (rho * g * H));
+    if (b >= 2) r.max_bin_error = std::max(r.max_bin_error, std::abs(pbar - rho * g * dbar) / (rho * g * H));
   }
   r.guarded = sim.counters().guarded;
   r.steps = sim.counters().steps;
