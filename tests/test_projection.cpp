@@ -8,7 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "cases/polygon_tank.hpp"
+#include "cases/hydrostatic_polygon.hpp"
 #include "mpskit/ppe/suitesparse.hpp"
 #include "mpskit/scene.hpp"
 
@@ -106,10 +106,7 @@ TEST_SUITE("projection_stability") {
       tc.angle_deg = angle;
       tc.tank_height = 0.13;
       const auto tank = cases::make_polygon_tank<2>(tc);
-      scheme::lsmps_state<2> s0(tank.size());
-      s0.x() = tank.x;
-      s0.u().setZero();
-      s0.get<field::volume>().setConstant(tc.L * tc.L);
+      const auto s0 = cases::rest_state(tank);
       auto p = rest_params();
       p.volume.c_min = 1e-9;  // volume correction off: the staircase fill beside the incline has c < c_min,
       p.volume.c_max = 1e9;   // which would make the state at rest move (no fixed point to linearise about)
@@ -134,16 +131,12 @@ TEST_SUITE("projection_stability") {
     tc.tank_height = 0.15;
     tc.angle_deg = 60.0;
     const auto tank = cases::make_polygon_tank<2>(tc);
-    scheme::lsmps_state<2> s0(tank.size());
-    s0.x() = tank.x;
-    s0.u().setZero();
-    s0.get<field::volume>().setConstant(tc.L * tc.L);
     auto p = rest_params();
     p.g = scheme::semi_implicit_params<2>::gravity();
     p.volume.c_min = 1e-9;
     p.volume.c_max = 1e9;
     p.pressure = scheme::pressure_operator::nested_gradient;
-    simulation<tank_scene> sim(p, std::move(s0), &tank.walls);
+    simulation<tank_scene> sim(p, cases::rest_state(tank), &tank.walls);
     sim.step();
     const auto& P = sim.state().get<field::pressure>();
     const double g = -p.g[1], rho = p.rho;
@@ -186,7 +179,7 @@ TEST_SUITE("projection_stability") {
     const points<2> u0 = u;
     regularize::boundary_filter_params fp;  // ε = 0.05
     const auto all = [](index_t) { return true; };
-    const index_t count = regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, u, du);
+    const index_t count = regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, u0, u, du);
     CHECK(count == n);
     const double err = (u - u0).cwiseAbs().maxCoeff() / u0.cwiseAbs().maxCoeff();
     std::printf("projection_stability boundary filter on a quadratic field: max relative change %.2e\n", err);
@@ -195,7 +188,8 @@ TEST_SUITE("projection_stability") {
     points<2> s = points<2>::Zero(2, n);
     const index_t k = 5 * nx + 6;
     s(1, k) = 1.0;
-    regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, s, du);
+    const points<2> s0 = s;
+    regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, s0, s, du);
     CHECK(s(1, k) == doctest::Approx(1.0 - fp.strength).epsilon(1e-12));
     fp.strength = 1.5;
     CHECK_THROWS_AS(fp.validate(), mpskit::error);

@@ -45,6 +45,16 @@ struct hydrostatic_polygon_result {
   double wall_seconds = 0.0;         ///< wall time of the run
 };
 
+/// The tank's fluid at rest as an LSMPS state (positions of the fill, u = 0, V = L^D).
+template <int D>
+scheme::lsmps_state<D> rest_state(const polygon_tank<D>& tank) {
+  scheme::lsmps_state<D> s(tank.size());
+  s.x() = tank.x;
+  s.u().setZero();
+  s.template get<field::volume>().setConstant(std::pow(tank.L, D));
+  return s;
+}
+
 /// Runs the tank with Scene (lsmps_defaults<D> or a variant).
 template <class Scene>
 hydrostatic_polygon_result run_hydrostatic_polygon(hydrostatic_polygon_config<Scene::dim> cfg) {
@@ -53,11 +63,7 @@ hydrostatic_polygon_result run_hydrostatic_polygon(hydrostatic_polygon_config<Sc
   const double L = tank.L, H = tank.surface_height;
   const double g = -cfg.params.g[D - 1];
   const double rho = cfg.params.rho;
-  scheme::lsmps_state<D> s0(tank.size());
-  s0.x() = tank.x;
-  s0.u().setZero();
-  s0.template get<field::volume>().setConstant(std::pow(L, D));
-  simulation<Scene> sim(cfg.params, std::move(s0), &tank.walls);
+  simulation<Scene> sim(cfg.params, rest_state(tank), &tank.walls);
   hydrostatic_polygon_result r;
   r.fluid = tank.size();
   r.surface_height_initial = H;

@@ -45,18 +45,19 @@ struct boundary_filter_params {
 };
 
 /// Filters u in place at the first n particles with selected(i): u_i += ε (û_i − u_i), û_i the LSMPS-B
-/// order-2 fit at x_i over the participating neighbours j ≠ i within the operator support (pair radius of
-/// `op`, sizes L). A particle whose fit is degenerate (too few neighbours: order_used < 2) is left alone.
-/// Returns the number of filtered particles. `du` is scratch (resized here).
+/// order-2 fit at x_i of the values `src` over the participating neighbours j ≠ i within the operator
+/// support (pair radius of `op`, sizes L); src_i = u_i for i < n (other columns: e.g. a wall copy carrying
+/// its parent's velocity). A particle whose fit is degenerate (order_used < 2) is left alone. Returns the
+/// number of filtered particles. `du` is scratch (resized here).
 template <int D, class Exec, class Participates, class Selected>
 index_t boundary_filter(Exec exec, const points<D>& x, const Eigen::VectorXd& L, const search::neighbour_list<D>& nl,
                         const search::support<search::per_particle_radius>& support, const op::lsmps_params& op,
                         const Participates& participates, const Selected& selected, index_t n,
-                        const boundary_filter_params& p, points<D>& u, points<D>& du) {
+                        const boundary_filter_params& p, const points<D>& src, points<D>& u, points<D>& du) {
   if (!(p.strength > 0.0)) return 0;
-  if (u.cols() < n || x.cols() < n || L.size() < x.cols())
-    fail("boundary_filter: n = ", n, " exceeds the velocities (", u.cols(), "), positions (", x.cols(),
-         ") or sizes (", L.size(), ")");
+  if (u.cols() < n || x.cols() < n || L.size() < x.cols() || src.cols() < x.cols())
+    fail("boundary_filter: n = ", n, " exceeds the velocities (", u.cols(), "), or the positions (", x.cols(),
+         ") exceed the sizes (", L.size(), ") or the fitted values (", src.cols(), ")");
   const op::lsmps_b<D, 2> fit(op);
   du.setZero(D, n);
   std::vector<std::uint8_t> done(static_cast<std::size_t>(n), 0);
@@ -82,8 +83,8 @@ index_t boundary_filter(Exec exec, const points<D>& x, const Eigen::VectorXd& L,
     if (st.order_used < 2) return;
     vec<D> uhat = vec<D>::Zero();
     for (std::size_t k = 0; k < st.columns.size(); ++k)
-      uhat += st.weights[k][0] * u.col(global[static_cast<std::size_t>(st.columns[k])]);
-    du.col(i) = p.strength * (uhat - u.col(i));
+      uhat += st.weights[k][0] * src.col(global[static_cast<std::size_t>(st.columns[k])]);
+    du.col(i) = p.strength * (uhat - src.col(i));
     done[static_cast<std::size_t>(i)] = 1;
   });
   index_t count = 0;
