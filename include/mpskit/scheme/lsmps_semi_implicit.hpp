@@ -451,22 +451,17 @@ class lsmps_semi_implicit {
     });
     // 9b. Velocity filter in the one-sided band (a deviation; regularize/boundary_filter.hpp): particles with
     //     a copy, a pressure-boundary particle or a free-surface particle among their neighbours.
+    //     The band (one_sided_) is flagged in the near-surface sweep of solve_pressure.
     if (p_.boundary_filter.strength > 0.0) {
-      const auto one_sided = [&](index_t i) {
-        bool near = surface_[static_cast<std::size_t>(i)] != 0;
-        nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double) {
-          near = near || j >= n || surface_[static_cast<std::size_t>(j)] != 0;
-        });
-        return near;
-      };
+      const auto one_sided = [&](index_t i) { return one_sided_[static_cast<std::size_t>(i)] != 0; };
       // Fitted values: the fluid's velocities and the copies' wall velocity (no-slip; with the parent's
       // velocity instead the 60° tank kept an eigenvalue 1.0008, measured); pressure-boundary particles (an
-      // average, not the fluid's own field: 1.7 % off a uniform start-up flow, measured) are left out.
-      filter_src_ = s_.u();
+      // average, not the fluid's own field: 1.7 % off a uniform start-up flow, measured) are left out. The
+      // filter reads every value before it writes any, so u is both the fitted values and the output.
       const auto fitted = [&](index_t j) { return j < nc_ && participates(j); };
       c_.filtered += static_cast<long>(regularize::boundary_filter(exec::par{}, x, L_, nl_, support(), p_.op, fitted,
-                                                                   one_sided, n, p_.boundary_filter, filter_src_,
-                                                                   s_.u(), filter_du_));
+                                                                   one_sided, n, p_.boundary_filter, s_.u(), s_.u(),
+                                                                   filter_du_));
     }
     // 10. Shifting (δx from this step's lists at x^k; δu = ∇u δx, eq. 91).
     if constexpr (has_shift) shift_particles();
@@ -712,6 +707,7 @@ class lsmps_semi_implicit {
       if (unk_[static_cast<std::size_t>(i)] == npos) pres[i] = 0.0;
     if constexpr (has_pressure_boundary) pres.segment(nc_, nt - nc_) = pb_->pressures();
     const index_t m = static_cast<index_t>(rows_.size());
+    one_sided_.assign(static_cast<std::size_t>(n), 0);  // stays 0 when there is nothing to solve
     if (m == 0) return;
 
     // Near the free surface the packing ratio measures the void above, not a compression: the row below
@@ -721,16 +717,20 @@ class lsmps_semi_implicit {
     // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on the
     // face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq. 62
     // pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at t = 0.02 s).
+    // The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface particle, or one
+    // with a copy, a pressure-boundary or a surface particle among its neighbours.
     near_surface_.assign(static_cast<std::size_t>(nt), 0);
-    if constexpr (has_surface || has_pressure_boundary) {
+    if constexpr (has_surface || has_pressure_boundary || has_walls) {
       for_each_particle(exec::par{}, n, [&](index_t i) {
         const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
-        bool near = false;
+        bool near = false, band = surface_[static_cast<std::size_t>(i)] != 0;
         nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
           const bool open = (j < n && surface_[static_cast<std::size_t>(j)]) || j >= nc_;
           if (open && r2 < reach * reach) near = true;
+          band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0;
         });
         near_surface_[static_cast<std::size_t>(i)] = near;
+        one_sided_[static_cast<std::size_t>(i)] = band;
       });
     }
     // ∇u′ at every row: copies carry the extrapolated u′ (default) or the wall velocity.
@@ -969,8 +969,8 @@ class lsmps_semi_implicit {
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
-  points<D> ut_, xold_, normal_, wall_normal_, dx_, filter_du_, filter_src_;
-  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, near_surface_;
+  points<D> ut_, xold_, normal_, wall_normal_, dx_, filter_du_;
+  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, near_surface_, one_sided_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
   std::vector<op::row_entries> row_buf_;  ///< PPE rows of the step (reused: capacity kept)
