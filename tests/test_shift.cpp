@@ -314,6 +314,43 @@ TEST_SUITE("tanaka_shift") {
     CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &bad), doctest::Contains("n_wall"), mpskit::error);
   }
 
+  TEST_CASE("regularize: tanaka shift at a contact line: the printed eq. 99 freezes an overlapping pair, wall_only separates it") {
+    // Wall x = 0 (normal +x into the fluid), free surface above (normal +y): in 2D the two normals of eq. 99
+    // remove every direction, so a pair at the contact line cannot be pushed apart (the failure seen in
+    // Tanaka's dam break at T ≈ 1.44, docs/regularize.md). wall_only keeps the overlap penalty δx** and
+    // removes only its component into the wall.
+    points<2> x(2, 2);
+    x.col(0) = vec<2>(0.30 * L0, 0.5);
+    x.col(1) = vec<2>(0.65 * L0, 0.5 - 0.10 * L0);
+    const vec<2> xij = x.col(1) - x.col(0);
+    const double r = xij.norm();
+    const vec<2> e = xij / r;
+    shift_case<2> c(x);
+    points<2> nw(2, 2);
+    for (index_t i = 0; i < 2; ++i) {
+      c.tangential[static_cast<std::size_t>(i)] = 1;
+      c.n.col(i) = vec<2>(0.0, 1.0);
+      nw.col(i) = vec<2>(1.0, 0.0);
+    }
+    c.build();
+    regularize::tanaka_shift_params p;
+    p.penalty = regularize::penalty_direction::pair;
+    p.alpha_g = 1e6;  // eq. 93 off: the penalty alone
+    p.alpha_S = 1e6;  // eq. 100 off
+    c.run(p, exec::seq{}, all_participate{}, &nw);
+    CHECK(c.dx.col(0).norm() <= 1e-15 * L0);  // printed: nothing left
+    CHECK(c.dx.col(1).norm() <= 1e-15 * L0);
+    p.projection = regularize::penalty_projection::wall_only;
+    c.run(p, exec::seq{}, all_participate{}, &nw);
+    const double k = kernel::quadratic::w(r, 3.1 * L0) * (0.9 * L0 - r);  // eq. 29 × eq. 97 × L_ij, per pair
+    // Particle 1 is pushed away from the wall along +e: kept whole. Particle 0 is pushed along −e, which
+    // points into the wall: only the tangential part (along +y) is kept.
+    CHECK((c.dx.col(1) - k * e).norm() <= 1e-15 * L0);
+    CHECK(std::abs(c.dx(0, 0)) <= 1e-15 * L0);
+    CHECK(c.dx(1, 0) == doctest::Approx(-k * e[1]).epsilon(1e-13));
+    CHECK((xij + c.dx.col(1) - c.dx.col(0)).norm() > r + 0.5 * k);  // the pair separates
+  }
+
   TEST_CASE("regularize: tanaka shift matches eqs. 93-100 written literally (random diameters, masks)") {
     const std::uint64_t seed = test_seed() + 1;
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");

@@ -43,6 +43,15 @@ enum class penalty_direction : std::uint8_t {
                            ///< pair and let the Taylor–Green vortex collapse at its saddles)
 };
 
+/// Which part of δx eq. 99 projects for particles on the free surface or beside a wall.
+enum class penalty_projection : std::uint8_t {
+  with_displacement,  ///< (I − n⊗n) applied to δx = δx* + δx** (eq. 99 as printed)
+  wall_only           ///< eq. 99 on δx* as printed; the overlap penalty δx** only loses its component into a wall
+                      ///< (a deviation, docs/regularize.md: at a contact line the surface and wall normals
+                      ///< together remove every direction in 2D, two particles there closed to 0.34 L and
+                      ///< broke Tanaka's dam break at T ≈ 1.44)
+};
+
 /// Numbers of Tanaka's shifting (Tanaka 2018, parameter table of §2).
 struct tanaka_shift_params {
   double alpha_g = 0.001;  ///< α_g: δx* = 0 when |g_i − x_i| ≤ α_g L_i (eq. 93); accepted [0, inf)
@@ -51,6 +60,7 @@ struct tanaka_shift_params {
   double alpha_S = 0.01;   ///< α_S: |δx_i| ≤ α_S L_i (eq. 100); accepted (0, inf)
   double re_ratio = 3.1;   ///< R_i = re_ratio L_i, R_ij = (R_i + R_j)/2 (eqs. 27–28); accepted (1, inf)
   penalty_direction penalty = penalty_direction::concentration_gradient;  ///< eq. 96 as printed, or per pair
+  penalty_projection projection = penalty_projection::with_displacement;  ///< eq. 99 as printed, or wall only
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("tanaka_shift_params");
@@ -171,19 +181,21 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       sum_w += w;
     });
     coincident[k] = zero_pairs;
-    vec<D> d = vec<D>::Zero();
+    vec<D> d = vec<D>::Zero(), dp = vec<D>::Zero();  // δx* (eq. 93) and δx** (eq. 96)
     if (sum_w > 0.0) {
       const vec<D> gx = sum_g / sum_w;  // g_i − x_i (eq. 94)
       if (gx.norm() > p.alpha_g * Li) d = gx;  // eq. 93
     }
     if (p.penalty == penalty_direction::pair) {
-      d += penalty_pair;  // eq. 96 read per pair (a deviation); eq. 98: δx = δx* + δx**
+      dp = penalty_pair;  // eq. 96 read per pair (a deviation)
     } else {
       const vec<D> gc = grad_c.col(i);
       const double gnorm = gc.norm();
       if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0)
-        d -= (penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|; eq. 98: δx = δx* + δx**
+        dp = -(penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|
     }
+    const bool split = tangential_only[k] && p.projection == penalty_projection::wall_only;
+    if (!split) d += dp;  // eq. 98: δx = δx* + δx**, then eq. 99 below
     if (tangential_only[k]) {
       const vec<D> ni = n.col(i);
       bool any = false;
@@ -204,6 +216,14 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
         }
       }
       (any ? projected[k] : unprojected[k]) = 1;
+      if (split) {  // δx** keeps every direction but into a wall (n_wall points into the fluid)
+        if (n_wall && n_wall->col(i).squaredNorm() > 0.0) {
+          const vec<D> nw = n_wall->col(i);
+          const double into = nw.dot(dp);
+          if (into < 0.0) dp -= into * nw;
+        }
+        d += dp;
+      }
     }
     const double len = d.norm(), cap = p.alpha_S * Li;
     if (len > cap) {  // eq. 100: scaled down, direction kept (stays tangential after eq. 99)

@@ -24,6 +24,7 @@
 ///     neighbour pressure (eq. 22) or plain (eq. 21); u = u′ − Δt/ρ ∇p (eq. 15);
 ///     x = x′ + Δt (u − u′) (eq. 16 / bmmr eq. 28).
 ///  9. Shifting if the scene names one; NaN/inf check naming step, time and particle.
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -52,7 +53,10 @@ namespace mpskit::scheme {
 /// What to do with negative pressures after the solve (Tanaka 2018 §3.4: common practice clamps).
 enum class negative_pressure { clamp_to_zero, keep };
 /// Which pressure gradient corrects the velocity.
-enum class pressure_gradient { minimum /* eq. 22 */, plain /* eq. 21 */ };
+/// `corrected_minimum` is bmmr.md eq. 29 (Wang et al. 2017): the eq. 22 stencil with the correction
+/// matrix C_i⁻¹ in place of d/n0, exact for linear fields where p̂_i = p_i (at a free surface, where the
+/// plain d/n0 gradient of a half stencil is about half the hydrostatic one); `corrected` uses p̂_i = p_i.
+enum class pressure_gradient { minimum /* eq. 22 */, plain /* eq. 21 */, corrected_minimum /* bmmr eq. 29 */, corrected };
 
 /// No regularisation (collision or shifting) stage.
 struct no_regularization final {};
@@ -358,7 +362,7 @@ class semi_implicit {
   /// p̂_i of eq. 22 (p_i itself for the plain gradient).
   double reference_pressure(index_t i, const Eigen::VectorXd& pres) const {
     double pmin = pres[i];
-    if (p_.gradient == pressure_gradient::minimum) {
+    if (p_.gradient == pressure_gradient::minimum || p_.gradient == pressure_gradient::corrected_minimum) {
       nl_.for_each_neighbour(xt_, i, op_.small_support(), [&](index_t j, const vec<D>& d, double) {
         if (!isolated_[static_cast<std::size_t>(j)]) pmin = std::min(pmin, pressure_seen(i, j, pres, d));
       });
@@ -368,15 +372,27 @@ class semi_implicit {
 
   vec<D> pressure_gradient_at(index_t i, const Eigen::VectorXd& pres) const {
     const double pmin = pmin_[static_cast<std::size_t>(i)];
-    // Tanaka eq. 22 (minimum) or eq. 21 (plain: p̂_i = p_i), stencil of eq. 9.
-    const double c = double(D) / op_.n0_small();
+    // Tanaka eq. 22 (minimum) or eq. 21 (plain: p̂_i = p_i), stencil of eq. 9; with the correction
+    // matrix of bmmr.md eq. 29 in place of d/n0 for the corrected forms (C_i over the same neighbours:
+    // fluid, wall and dummy, isolated excluded; a C_i with fewer than d independent directions falls
+    // back to d/n0, as op::mps::correction_matrix does).
     const double re = op_.re_small();
+    const bool corrected = p_.gradient == pressure_gradient::corrected_minimum ||
+                           p_.gradient == pressure_gradient::corrected;
     vec<D> gsum = vec<D>::Zero();
+    mat<D> C = mat<D>::Zero();
     nl_.for_each_neighbour(xt_, i, op_.small_support(), [&](index_t j, const vec<D>& d, double r2) {
       if (isolated_[static_cast<std::size_t>(j)]) return;
-      gsum += ((pressure_seen(i, j, pres, d) - pmin) * op_type::kernel_type::w(std::sqrt(r2), re) / r2) * d;
+      const double w = op_type::kernel_type::w(std::sqrt(r2), re) / r2;
+      gsum += ((pressure_seen(i, j, pres, d) - pmin) * w) * d;
+      if (corrected) C.noalias() += w * (d * d.transpose());
     });
-    return c * gsum;
+    if (corrected) {
+      const Eigen::LDLT<mat<D>> f(C);
+      const double tol = 1e-10 * C.diagonal().maxCoeff();
+      if (f.info() == Eigen::Success && f.vectorD().minCoeff() > tol) return f.solve(gsum);
+    }
+    return (double(D) / op_.n0_small()) * gsum;
   }
 
   /// Force of the fluid on wall/dummy particle j from the antisymmetric pair form of the MPS pressure
