@@ -46,7 +46,8 @@ enum class penalty_direction : std::uint8_t {
 /// Which part of δx eq. 99 projects for particles on the free surface or beside a wall.
 enum class penalty_projection : std::uint8_t {
   with_displacement,  ///< (I − n⊗n) applied to δx = δx* + δx** (eq. 99 as printed)
-  wall_only           ///< eq. 99 on δx* as printed; the overlap penalty δx** only loses its component into a wall
+  wall_only           ///< eq. 99 on δx* and on the penalty from wall copies as printed; the fluid pairs' overlap
+                      ///< penalty (penalty_direction::pair only) loses just its component into a wall
                       ///< (a deviation, docs/regularize.md: at a contact line the surface and wall normals
                       ///< together remove every direction in 2D, two particles there closed to 0.34 L and
                       ///< broke Tanaka's dam break at T ≈ 1.44)
@@ -155,6 +156,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     double sum_w = 0.0;             // Σ_j w_ij                                   (eq. 94)
     double penalty = 0.0;           // Σ_j w_ij ε_ij L_ij                         (eqs. 96–97, length form)
     vec<D> penalty_pair = vec<D>::Zero();  // −Σ_j w_ij ε_ij L_ij x_ij/r_ij      (penalty_direction::pair)
+    vec<D> penalty_ghost = vec<D>::Zero();  // the part of penalty_pair from rows j ≥ m (imaginary copies)
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
       if (!participates(j)) return;
@@ -165,7 +167,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       const double pen_edge = (1.0 - p.alpha_p) * Lij;
       if (r < pen_edge) {
         penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
-        if (r2 > 0.0) penalty_pair -= (w * (pen_edge - r) / r) * xij;
+        if (r2 > 0.0) (j >= m ? penalty_ghost : penalty_pair) -= (w * (pen_edge - r) / r) * xij;
       }
       if (r2 == 0.0) {  // x_ji/|x_ji| undefined: out of eq. 94
         ++zero_pairs;
@@ -186,15 +188,19 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       const vec<D> gx = sum_g / sum_w;  // g_i − x_i (eq. 94)
       if (gx.norm() > p.alpha_g * Li) d = gx;  // eq. 93
     }
+    const bool split = tangential_only[k] && p.projection == penalty_projection::wall_only;
     if (p.penalty == penalty_direction::pair) {
       dp = penalty_pair;  // eq. 96 read per pair (a deviation)
+      // A copy sits L/2 from its parent, inside the penalty range: its push is always along the wall normal
+      // and eq. 99 removes it; with wall_only it stays with δx* (projected as printed).
+      if (split) d += penalty_ghost;
+      else dp += penalty_ghost;
     } else {
       const vec<D> gc = grad_c.col(i);
       const double gnorm = gc.norm();
       if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0)
         dp = -(penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|
     }
-    const bool split = tangential_only[k] && p.projection == penalty_projection::wall_only;
     if (!split) d += dp;  // eq. 98: δx = δx* + δx**, then eq. 99 below
     if (tangential_only[k]) {
       const vec<D> ni = n.col(i);
