@@ -351,6 +351,37 @@ TEST_SUITE("tanaka_shift") {
     CHECK((xij + c.dx.col(1) - c.dx.col(0)).norm() > r + 0.5 * k);  // the pair separates
   }
 
+  TEST_CASE("regularize: tanaka shift wall_only: a particle overlapping the wall is pushed off it, one at L/2 is not") {
+    // Row 0: a fluid particle beside the wall x = 0; row 1 (a ghost, j >= active.size()): its imaginary copy
+    // on the wall. At L/2 (the lattice at rest) the copy is outside (1 − α_p) L/2 = 0.45 L: no push in either
+    // form. At 0.2 L the printed eq. 99 removes the copy's push (tangential only); wall_only keeps it.
+    for (const double d : {0.5, 0.2}) {
+      points<2> x(2, 2);
+      x.col(0) = vec<2>(d * L0, 0.3);
+      x.col(1) = vec<2>(0.0, 0.3);
+      shift_case<2> c(x);
+      c.active.assign(1, 1);
+      c.tangential[0] = 1;
+      points<2> nw = points<2>::Zero(2, 2);
+      nw.col(0) = vec<2>(1.0, 0.0);
+      c.build();
+      regularize::tanaka_shift_params p;
+      p.penalty = regularize::penalty_direction::pair;
+      p.alpha_g = 1e6;
+      p.alpha_S = 1e6;
+      c.run(p, exec::seq{}, all_participate{}, &nw);
+      CHECK(c.dx.col(0).norm() <= 1e-15 * L0);
+      p.projection = regularize::penalty_projection::wall_only;
+      c.run(p, exec::seq{}, all_participate{}, &nw);
+      const double r = d * L0, edge = 0.45 * L0;
+      const double expect = r < edge ? kernel::quadratic::w(r, 3.1 * L0) * (edge - r) : 0.0;
+      CAPTURE(d);
+      CHECK(c.dx(0, 0) == doctest::Approx(expect).epsilon(1e-13));
+      CHECK(std::abs(c.dx(1, 0)) <= 1e-15 * L0);
+      if (d < 0.45) CHECK(c.dx(0, 0) > 0.0);  // off the wall
+    }
+  }
+
   TEST_CASE("regularize: tanaka shift matches eqs. 93-100 written literally (random diameters, masks)") {
     const std::uint64_t seed = test_seed() + 1;
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");

@@ -47,7 +47,8 @@ enum class penalty_direction : std::uint8_t {
 enum class penalty_projection : std::uint8_t {
   with_displacement,  ///< (I − n⊗n) applied to δx = δx* + δx** (eq. 99 as printed)
   wall_only           ///< eq. 99 on δx* and on the penalty from wall copies as printed; the fluid pairs' overlap
-                      ///< penalty (penalty_direction::pair only) loses just its component into a wall
+                      ///< penalty (penalty_direction::pair only) loses just its component into a wall, and a
+                      ///< copy closer than (1 − α_p) L_i/2 (the wall overlaps i) pushes i off the wall
                       ///< (a deviation, docs/regularize.md: at a contact line the surface and wall normals
                       ///< together remove every direction in 2D, two particles there closed to 0.34 L and
                       ///< broke Tanaka's dam break at T ≈ 1.44)
@@ -157,6 +158,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     double penalty = 0.0;           // Σ_j w_ij ε_ij L_ij                         (eqs. 96–97, length form)
     vec<D> penalty_pair = vec<D>::Zero();  // −Σ_j w_ij ε_ij L_ij x_ij/r_ij      (penalty_direction::pair)
     vec<D> penalty_ghost = vec<D>::Zero();  // the part of penalty_pair from rows j ≥ m (imaginary copies)
+    vec<D> penalty_wall = vec<D>::Zero();   // wall_only: a copy closer than (1 − α_p) L_i/2 (the wall inside i)
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
       if (!participates(j)) return;
@@ -169,6 +171,9 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
         penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
         if (r2 > 0.0) (j >= m ? penalty_ghost : penalty_pair) -= (w * (pen_edge - r) / r) * xij;
       }
+      const double wall_edge = 0.5 * (1.0 - p.alpha_p) * Li;
+      if (j >= m && r < wall_edge && r2 > 0.0 && p.projection == penalty_projection::wall_only)
+        penalty_wall -= (w * (wall_edge - r) / r) * xij;
       if (r2 == 0.0) {  // x_ji/|x_ji| undefined: out of eq. 94
         ++zero_pairs;
         return;
@@ -193,8 +198,12 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
       dp = penalty_pair;  // eq. 96 read per pair (a deviation)
       // A copy sits L/2 from its parent, inside the penalty range: its push is always along the wall normal
       // and eq. 99 removes it; with wall_only it stays with δx* (projected as printed).
-      if (split) d += penalty_ghost;
-      else dp += penalty_ghost;
+      if (split) {
+        d += penalty_ghost;
+        dp += penalty_wall;  // pushes i off a wall it overlaps (away from the wall: kept by the rule below)
+      } else {
+        dp += penalty_ghost;
+      }
     } else {
       const vec<D> gc = grad_c.col(i);
       const double gnorm = gc.norm();

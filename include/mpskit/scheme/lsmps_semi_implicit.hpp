@@ -159,6 +159,12 @@ struct lsmps_params {
                                         ///< thinner than the support; +~40 % list-build time, off if none)
   copy_row_kind copy_row = copy_row_kind::parent_gradient;  ///< the row at a copy (docs/solver.md: the most stable measured)
   copy_neumann_velocity copy_neumann = copy_neumann_velocity::parent;  ///< u′_w in eq. 83
+  /// β of the two-point term added to the parent-gradient copy row (a deviation, docs/lsmps_scheme.md):
+  /// (1/ρ)[n·⟨∇p⟩_parent + β (p_parent − p_copy)/d] = (1 + β)(u′ − u_wall)·n/Δt, d = (x_parent − x_copy)·n.
+  /// Both terms are eq. 83; the second gives the copy's unknown a diagonal, without which alternating copy
+  /// pressures along a floor were nearly invisible to every row and ran away (±2 MPa in Tanaka's dam break
+  /// from T ≈ 1.35). 0 gives the parent-gradient row alone. Accepted: [0, inf).
+  double copy_two_point = 0.0;
   copy_velocity_in_source copy_velocity = copy_velocity_in_source::extrapolated;  ///< see the enum
   pressure_operator pressure = pressure_operator::second_derivatives;  ///< the det F rows' operator (see the enum)
   negative_pressure negative = negative_pressure::keep;  ///< LSMPS needs no clamping (Tanaka §4.7)
@@ -176,6 +182,7 @@ struct lsmps_params {
     v.positive("rho", rho).non_negative("nu", nu);
     for (int a = 0; a < D; ++a) v.finite("g", g[a]);
     v.in_range("skin", skin, 0.0, 1.0).in_range("reorder_every", reorder_every, 0, 1e9);
+    v.non_negative("copy_two_point", copy_two_point);
     v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::constrained_poisson),
               "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not constrained_poisson "
               "(the det F row at a copy has no nested form)");
@@ -759,6 +766,17 @@ class lsmps_semi_implicit {
         op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
                       participates, row);
         b_[r] = dpdn_[i] / p_.rho - row.constant();
+        if (p_.copy_two_point > 0.0) {
+          // The two-point form of eq. 83 between the copy and its parent (copy_two_point; a parent closer
+          // than 1e-3 L to the wall has no usable distance and keeps the gradient row alone).
+          const double d = (x.col(ip) - x.col(i)).dot(normal_.col(i));
+          if (d > 1e-3 * L_[ip]) {
+            const double a = p_.copy_two_point / (p_.rho * d);
+            row.add(ip, a);
+            row.add(i, -a);
+            b_[r] += p_.copy_two_point * dpdn_[i] / p_.rho;
+          }
+        }
       } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
         // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
         row.reset(i);
