@@ -158,7 +158,10 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     double penalty = 0.0;           // Σ_j w_ij ε_ij L_ij                         (eqs. 96–97, length form)
     vec<D> penalty_pair = vec<D>::Zero();  // −Σ_j w_ij ε_ij L_ij x_ij/r_ij      (penalty_direction::pair)
     vec<D> penalty_ghost = vec<D>::Zero();  // the part of penalty_pair from rows j ≥ m (imaginary copies)
-    vec<D> penalty_wall = vec<D>::Zero();   // wall_only: a copy closer than (1 − α_p) L_i/2 (the wall inside i)
+    // wall_only: a copy closer than (1 − α_p) L_i/2 (the wall inside i). Every row j ≥ m counts as a wall
+    // copy here; the LSMPS scheme's other ghosts, pressure-boundary particles, have no shifted particle
+    // within 2 L_i (scheme/lsmps_semi_implicit.hpp), so they never reach this test.
+    vec<D> penalty_wall = vec<D>::Zero();
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
       if (!participates(j)) return;
