@@ -245,13 +245,19 @@ class mps final {
     sweep(x, nl, i, false, filter, [&](index_t, const vec<D>& d, double r2, double w) {
       C.noalias() += (w / r2) * (d * d.transpose());
     });
-    mat<D> F = C, inv;
-    if (detail::ldlt_pivoted(F, D, correction_pivot_tolerance).passed == D) {
-      detail::ldlt_inverse(F, D, inv);
-      return inv;
-    }
+    mat<D> inv;
+    if (invert_correction(C, inv)) return inv;
     if (flags) *flags |= flag::degenerate;
     return (gradient_coefficient(x, nl, i, filter) * mat<D>::Identity()).eval();
+  }
+
+  /// C⁻¹ of an accumulated C = Σ_j (x_ij/r_ij)⊗(x_ij/r_ij) w_ij into inv; false (inv untouched) when C fails
+  /// the pivot test (fewer than d independent directions). For callers that sum C in their own sweep.
+  static bool invert_correction(const mat<D>& C, mat<D>& inv) {
+    mat<D> F = C;
+    if (detail::ldlt_pivoted(F, D, correction_pivot_tolerance).passed != D) return false;
+    detail::ldlt_inverse(F, D, inv);
+    return true;
   }
 
   /// Corrected gradient stencil: f(j, c_ij), c_ij = C_i⁻¹ x_ij w_ij / r_ij² (bmmr.md eq. 29, no d/n0):

@@ -162,6 +162,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     // copy here; the LSMPS scheme's other ghosts, pressure-boundary particles, have no shifted particle
     // within 2 L_i (scheme/lsmps_semi_implicit.hpp), so they never reach this test.
     vec<D> penalty_wall = vec<D>::Zero();
+    const double wall_edge = p.projection == penalty_projection::wall_only ? 0.5 * (1.0 - p.alpha_p) * Li : 0.0;
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
       if (!participates(j)) return;
@@ -174,9 +175,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
         penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
         if (r2 > 0.0) (j >= m ? penalty_ghost : penalty_pair) -= (w * (pen_edge - r) / r) * xij;
       }
-      const double wall_edge = 0.5 * (1.0 - p.alpha_p) * Li;
-      if (j >= m && r < wall_edge && r2 > 0.0 && p.projection == penalty_projection::wall_only)
-        penalty_wall -= (w * (wall_edge - r) / r) * xij;
+      if (j >= m && r < wall_edge && r2 > 0.0) penalty_wall -= (w * (wall_edge - r) / r) * xij;
       if (r2 == 0.0) {  // x_ji/|x_ji| undefined: out of eq. 94
         ++zero_pairs;
         return;

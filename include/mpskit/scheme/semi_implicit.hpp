@@ -24,7 +24,6 @@
 ///     neighbour pressure (eq. 22) or plain (eq. 21); u = u′ − Δt/ρ ∇p (eq. 15);
 ///     x = x′ + Δt (u − u′) (eq. 16 / bmmr eq. 28).
 ///  9. Shifting if the scene names one; NaN/inf check naming step, time and particle.
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -374,8 +373,8 @@ class semi_implicit {
     const double pmin = pmin_[static_cast<std::size_t>(i)];
     // Tanaka eq. 22 (minimum) or eq. 21 (plain: p̂_i = p_i), stencil of eq. 9; with the correction
     // matrix of bmmr.md eq. 29 in place of d/n0 for the corrected forms (C_i over the same neighbours:
-    // fluid, wall and dummy, isolated excluded; a C_i with fewer than d independent directions falls
-    // back to d/n0, as op::mps::correction_matrix does).
+    // fluid, wall and dummy, isolated excluded, summed in this sweep; a C_i with fewer than d independent
+    // directions falls back to d/n0, as op::mps::correction_matrix does).
     const double re = op_.re_small();
     const bool corrected = p_.gradient == pressure_gradient::corrected_minimum ||
                            p_.gradient == pressure_gradient::corrected;
@@ -387,11 +386,7 @@ class semi_implicit {
       gsum += ((pressure_seen(i, j, pres, d) - pmin) * w) * d;
       if (corrected) C.noalias() += w * (d * d.transpose());
     });
-    if (corrected) {
-      const Eigen::LDLT<mat<D>> f(C);
-      const double tol = 1e-10 * C.diagonal().maxCoeff();
-      if (f.info() == Eigen::Success && f.vectorD().minCoeff() > tol) return f.solve(gsum);
-    }
+    if (mat<D> Ci; corrected && op_type::invert_correction(C, Ci)) return Ci * gsum;
     return (double(D) / op_.n0_small()) * gsum;
   }
 

@@ -198,9 +198,10 @@ std::optional<vec<D>> wall_slid_axis(const geometry::polygon_set<D>& walls, cons
                                      const vec<D>& axis, const geometric_params& p) {
   const double reach = p.alpha_theta * Li;
   vec<D> a = axis;
-  for (int k = 0; k < D; ++k) {
+  for (int k = 0;; ++k) {
     const auto hit = walls.first_crossing(xi, vec<D>(xi + reach * a));
     if (!hit) return a;
+    if (k == D) return std::nullopt;  // still solid after sliding along D walls
     const double into = a.dot(hit->normal);
     if (!(into < 0.0)) return std::nullopt;  // leaving through a wall's back: solid behind it
     a -= into * hit->normal;
@@ -208,8 +209,6 @@ std::optional<vec<D>> wall_slid_axis(const geometry::polygon_set<D>& walls, cons
     if (!(len > 1e-8)) return std::nullopt;
     a /= len;
   }
-  if (!walls.first_crossing(xi, vec<D>(xi + reach * a))) return a;
-  return std::nullopt;
 }
 
 /// Sets surface[i] = 1 (surface) or 0 (inside) for the particles with wanted(i) (default: all; pass real
