@@ -67,8 +67,9 @@ TEST_SUITE("poiseuille") {
                 "[%.4f, %.4f], in %ld out %ld behind %ld, ledger %.1e, steps %ld, guarded %ld, %.1f s\n",
                 r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, r.pressure_error, r.volume_min, r.volume_max,
                 r.inflow, r.outflow, r.outflow_behind, r.ledger_error, r.steps, r.guarded, r.wall_seconds);
-    // The start-up transient against the series at 0.05 s and 0.1 s: measured 0.20 % and 0.60 % of u_max;
-    // 1.5 % leaves room for rounding (the in/outflow events make this run sensitive to the last digit).
+    // The start-up transient against the series at 0.05 s and 0.1 s: measured 0.13 % and 0.14 % of u_max with
+    // the normal-tube boundary velocity (0.19 % and 0.56 % with the paper's isotropic mean); 1.5 % leaves room
+    // for rounding (the in/outflow events make this run sensitive to the last digit).
     REQUIRE(r.probes.size() == 2);
     for (const auto& pr : r.probes) {
       CAPTURE(pr.t);
@@ -84,9 +85,14 @@ TEST_SUITE("poiseuille") {
     CHECK(r.volume_min >= 0.93);
     CHECK(r.guarded == 0);
     CHECK(r.pinned == 0);  // Dirichlet boundary rows: nothing floats
-    // Issue #8 asks the mid-length profile within 2 % of the steady profile: NOT met (measured 3.0 %; 2.3 %
-    // against the series at 0.5 s; docs/channel.md): asserted at the measured level so a regression shows.
-    CHECK(r.steady_error <= 0.035);
+    // Issue #8: the mid-length profile within 2 % of the analytic steady profile (u_max 0.125 m/s). Measured
+    // 0.85 % (0.11 % against the series at 0.5 s: the slowest mode, time constant H²/(π²ν) = 0.10 s, still
+    // holds 0.7 % of u_max); with the paper's isotropic boundary mean 2.9 % (docs/channel.md).
+    CHECK(r.steady_error <= 0.02);
+    CHECK(r.end.max_error <= 0.01);
+    // No pressure lost at the faces: RMS |p − Δp (1 − x/ℓ)| measured 0.6 % of Δp (2.8 % with the isotropic
+    // mean, which drags the fluid beside both faces); 2 % separates the two.
+    CHECK(r.pressure_error <= 0.02);
   }
 }
 
@@ -360,6 +366,55 @@ TEST_SUITE("pressure_boundary") {
     CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_scene>(c.params(), cases::channel_state(c.ell, c.H, c.L), &c.walls,
                                                              &c.pb),
                          doctest::Contains("without boundary::pressure"), mpskit::error);
+  }
+
+  TEST_CASE("boundary: the normal-tube boundary velocity keeps a developed profile the isotropic mean flattens") {
+    // Fluid lattice (spacing L, 8 columns × 20 rows) beside the inlet face x = 0 of a 10 mm channel, carrying
+    // the steady profile u_x = u(y) = 4 U y (H − y)/H²; the boundary particles sit on the face in line with
+    // the rows. The normal tube (half-width L_p) holds only the boundary particle's own row, in which u is
+    // constant along the normal: exact. The isotropic mean (Tanaka §4.5.2) flattens the profile by
+    // ½ u'' ⟨Δy²⟩_w = −4 U ⟨Δy²⟩_w / H² (u'' = −8 U/H²): at the centre ≈ 1 % of U, the drag that cost the
+    // pressure-driven channel 2 % of its flow (docs/channel.md).
+    pressure_channel c;
+    const double L = c.L, H = c.H, U = 0.125;
+    const auto prof = [&](double y) { return 4.0 * U * y * (H - y) / (H * H); };
+    const index_t nf = 8 * 20;
+    boundary::pressure_params iso;
+    iso.velocity = boundary::boundary_velocity::isotropic;
+    const boundary::pressure_boundary<2> tube_pb(c.faces(H, c.ell), {0.0, 0.0}, L);
+    const boundary::pressure_boundary<2> iso_pb(c.faces(H, c.ell), {0.0, 0.0}, L, iso);
+    const index_t nb = tube_pb.size();
+    points<2> x(2, nf + nb), u = points<2>::Zero(2, nf + nb);
+    for (index_t i = 0; i < 8; ++i)
+      for (index_t j = 0; j < 20; ++j) {
+        const index_t q = i * 20 + j;
+        x.col(q) = vec<2>((i + 0.5) * L, (j + 0.5) * L);
+        u(0, q) = prof(x(1, q));
+      }
+    for (index_t k = 0; k < nb; ++k) x.col(nf + k) = tube_pb.x().col(k);
+    Eigen::VectorXd Ls = Eigen::VectorXd::Constant(nf + nb, L);
+    search::neighbour_list<2> nl;
+    nl.build(exec::seq{}, x, search::per_particle_radius{&Ls, 3.1});
+    const auto all = [](index_t) { return true; };
+    double tube_err = 0.0, iso_centre = 0.0;
+    for (index_t k = 0; k < nb; ++k) {
+      if (tube_pb.normals()(0, k) <= 0.0) continue;  // the inlet face only (normal +x)
+      const double y = tube_pb.x()(1, k), exact = prof(y);
+      const vec<2> vt = tube_pb.averaged_velocity(x, nl, nf + k, k, nf, Ls, 3.1, u, all);
+      const vec<2> vi = iso_pb.averaged_velocity(x, nl, nf + k, k, nf, Ls, 3.1, u, all);
+      // rows more than R from the walls: the isotropic mean's stencil is not truncated by the wall there
+      if (y > 3.5 * L && y < H - 3.5 * L) tube_err = std::max(tube_err, std::abs(vt[0] - exact) / U);
+      if (std::abs(y - 0.5 * H) < 0.5 * L + 1e-12) iso_centre = (vi[0] - exact) / U;
+      CHECK(vt[1] == 0.0);  // normal component only (n_p = +x)
+    }
+    std::printf("boundary velocity of a developed profile: normal tube max err %.2e U, isotropic mean at the centre %.4f U\n",
+                tube_err, iso_centre);
+    CHECK(tube_err <= 1e-14);
+    CHECK(iso_centre < -0.005);  // the flattening, measured −0.0096 U (sign: slower than the fluid)
+    boundary::pressure_params bad;
+    bad.tube_width = 0.0;
+    CHECK_THROWS_WITH_AS(boundary::pressure_boundary<2>(c.faces(H, c.ell), {0.0, 0.0}, L, bad),
+                         doctest::Contains("tube_width"), mpskit::error);
   }
 
   TEST_CASE("boundary: the PPE with Dirichlet pressure boundaries and no free surface gives the linear pressure") {

@@ -61,7 +61,7 @@ inline geometry::polygon_mesh<2> multi_diameter_walls(const multi_diameter_confi
 }
 
 template <class Scene = multi_diameter_scene>
-multi_diameter_result run_multi_diameter(multi_diameter_config c) {
+multi_diameter_result run_multi_diameter(multi_diameter_config c, const boundary::pressure_params& bp = {}) {
   const double a = 0.5 * c.wide, b = 0.5 * c.narrow, s = c.section, ell = 3 * s, L = c.L;
   auto p = c.params;
   p.rho = c.rho;
@@ -78,7 +78,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   fm.elements.resize(2, 2);
   fm.elements.col(0) << 0, 1;
   fm.elements.col(1) << 2, 3;
-  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, L);
+  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, L, bp);
   std::vector<vec<2>> pts;
   for (int i = 0; (i + 0.5) * L < ell; ++i)
     for (int j = -static_cast<int>(std::ceil(a / L)); (j + 0.5) * L < a; ++j) {
