@@ -1,7 +1,9 @@
 // Plane Poiseuille flow with Tanaka 2018's LSMPS scheme (§5.2, §4.5.2; issue #8): the channel periodic in x
 // driven by the body force G/ρ, and the same channel driven by pressure inflow/outflow boundaries, against
 // the start-up series (validation-cases.md D1).
-// Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]
+// Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]   |   channel --multi [L] [t_end]
+//   --multi: the multi-diameter channel (30 mm -> 10 mm, 100 Pa -> 0 Pa, mu = 0.001 Pa s); default L = 1 mm to
+//            0.3 s (the CI case); the paper's is L = 0.25 mm to 1 s
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s (Tanaka's single resolution
@@ -10,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "cases/multi_diameter_channel.hpp"
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
 
@@ -27,6 +30,19 @@ int main(int argc, char** argv) {
                 pc.per_radius, static_cast<long long>(r.particles), r.steps, r.wall_seconds);
     for (const auto& pr : r.probes)
       std::printf("  t = %.3f s: max ring |u - series| / u_max = %.4f (RMS %.4f)\n", pr.t, pr.max_error, pr.rms_error);
+    return 0;
+  }
+  if (argc > 1 && !std::strcmp(argv[1], "--multi")) {
+    mpskit::cases::multi_diameter_config mc;
+    if (argc > 2) mc.L = std::atof(argv[2]);
+    if (argc > 3) mc.t_end = std::atof(argv[3]);
+    const auto r = mpskit::cases::run_multi_diameter(mc);
+    std::printf("multi-diameter channel, L = %.3f mm (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
+                mc.L * 1e3, static_cast<long long>(r.particles), r.steps, r.wall_seconds, mc.t_end);
+    std::printf("  volume balance over the last %.2f s: |Q_in - Q_out - dV/dt| / Q_in = %.4f (Q_in %.3e m^2/s)\n",
+                mc.window, r.balance, r.q_in);
+    std::printf("  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s, guarded %ld\n",
+                r.inflow, r.outflow, r.outflow_behind, r.p_min, r.p_max, r.u_max, r.guarded);
     return 0;
   }
   for (int a = 1; a < argc; ++a) {

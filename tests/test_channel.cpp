@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "cases/multi_diameter_channel.hpp"
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
 #include "cases/taylor_green.hpp"
@@ -441,5 +442,32 @@ TEST_SUITE("pressure_boundary") {
     CHECK(eu <= 1e-5);
     CHECK(sim.counters().pinned_components == 0);  // the boundary particles are Dirichlet rows: nothing floats
     CHECK(st.n_ghost() == 0);  // pressure-boundary scenes end a step with the ghosts cleared (resize path)
+  }
+}
+
+TEST_SUITE("multi_diameter_channel") {
+  TEST_CASE("channel: multi-diameter channel, 30 mm -> 10 mm taper, 100 Pa -> 0 Pa (Tanaka 2018 §5.3, A3)") {
+    // Issue #8's CI case: L = 1 mm, μ = 0.001 Pa s, to 0.3 s; the volume balance |Q_in − Q_out − dV/dt| over the
+    // last 0.1 s, Q the velocity fluxes through slabs 3 L inside the faces (the particle ledger closes by
+    // construction and is checked apart). α_o = 0.75 (the case's choice, docs/channel.md).
+    cases::multi_diameter_config c;
+    const auto r = cases::run_multi_diameter(c);
+    std::printf("multi-diameter channel: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), in %ld out %ld behind "
+                "%ld, guarded %ld, ledger %.1e, p in [%.0f, %.0f] Pa, |u|max %.3f m/s, %ld steps, %.1f s\n",
+                r.balance, r.q_in, r.q_out, r.dvdt, r.inflow, r.outflow, r.outflow_behind, r.guarded, r.ledger_error,
+                r.p_min, r.p_max, r.u_max, r.steps, r.wall_seconds);
+    // The issue's 2 % of Q_in; measured 1.4 %.
+    CHECK(r.balance <= 0.02);
+    // The flow is established and renewed through both faces: Bernoulli from 100 Pa gives ≈ 0.45 m/s in the
+    // narrow section; measured Q_in ≈ 2.9e-3 m²/s (≈ 0.1 m/s across 30 mm), 566 created, 582 removed.
+    CHECK(r.q_in > 1e-3);
+    CHECK(r.inflow > 300);
+    CHECK(r.outflow + r.outflow_behind > 300);
+    CHECK(r.ledger_error <= 1e-12);
+    CHECK(r.guarded == 0);
+    // Not an explosion: |u| below the Bernoulli speed of the whole 100 Pa drop, √(2Δp/ρ) = 0.45 m/s, with
+    // room for the corner spikes (measured max 0.41 m/s; pressure in [−472, 672] Pa: spikes of several hundred Pa at the convex
+    // taper corners and the outlet corners are reported, not bounded: docs/channel.md).
+    CHECK(r.u_max <= 1.0);
   }
 }
