@@ -13,8 +13,8 @@
 ///     whose signed wall distance is ≥ wall_clearance · L′; velocities u ± ⟨∇u⟩ (α_t/2) L′ t (eq. 70).
 ///  3. Merges: i (L*_i > β_m L_i) with j, both non-isolated fluid and not asking to split, r_ij < α_r L_ij,
 ///     and only if the merged particle would not split at once (trigger at x′ with L′). Pairs are formed
-///     by iterated mutual nearest neighbours: eligible pairs are taken in increasing (r_ij², lower id,
-///     higher id) order, each taken when both ends are still free (greedy matching on a strict total
+///     by iterated mutual nearest neighbours: eligible pairs are taken in increasing (rank, r_ij², lower id,
+///     higher id) order (rank 0 when both ask to merge, 1 otherwise: merge_partners::alike_first), each taken when both ends are still free (greedy matching on a strict total
 ///     order = repeated mutual-nearest pairing), so the pairs depend on neither the thread count nor the
 ///     input order. Eqs. 72–74 give x′, u′, V′ = V_i + V_j.
 ///  4. Every event is checked by the conservation ledger (resolution/ledger.hpp), then all events go through
@@ -136,6 +136,19 @@ class target_diameter_fn {
   bool context_ = false;
 };
 
+/// Which merge partners are paired first (§4.4.2: "the difference of the diameters during the merging
+/// process should be as small as possible"; the paper pairs i with "a neighbouring particle j").
+enum class merge_partners {
+  /// Pairs of two particles that both ask to merge first (nearest first), then a particle that asks with
+  /// one that does not (ours, the default): a child leaving a refined region merges with its sibling-sized
+  /// neighbour before it takes a coarse one (volume 1.5 V, which splits twice on re-entry).
+  alike_first,
+  /// Only partners that ask to merge too (ours): sizes stay within the steps of the trigger.
+  both_ask,
+  /// Nearest eligible partner whatever it asks (the paper's text read literally).
+  nearest,
+};
+
 /// Runtime numbers of split/merge with Tanaka 2018's defaults (Table 2) where the paper gives them.
 template <int D>
 struct split_merge_params {
@@ -150,6 +163,8 @@ struct split_merge_params {
   int n_directions_3d = 256;
   /// Children keep a signed wall distance ≥ wall_clearance · L′ (issue #9: L′/2).
   double wall_clearance = 0.5;
+  /// Pairing order of the merges (docs/resolution.md): alike_first (default, ours) or nearest.
+  merge_partners partners = merge_partners::alike_first;
   bool split = true;  ///< allow splitting
   bool merge = true;  ///< allow merging
   ledger_params ledger{};  ///< per-event tolerances (4 and 8 ulp) and the density of the reports
@@ -594,7 +609,9 @@ struct split_merge final {
       double r2;
       particle_id lo, hi;
       index_t i, j;  // i = index of lo
+      int rank = 0;  // merge_partners::alike_first: 0 when both ask to merge, else 1
       bool operator<(const edge& o) const {
+        if (rank != o.rank) return rank < o.rank;
         if (r2 != o.r2) return r2 < o.r2;
         if (lo != o.lo) return lo < o.lo;
         return hi < o.hi;
@@ -722,7 +739,8 @@ struct split_merge final {
         if (want_[static_cast<std::size_t>(i)] == want::merge && eligible_[static_cast<std::size_t>(i)]) cand.push_back(i);
       const auto partner_ok = [&](index_t j) {
         return j < n && kind_of(j) == kind::fluid && eligible_[static_cast<std::size_t>(j)] &&
-               want_[static_cast<std::size_t>(j)] != want::split;
+               want_[static_cast<std::size_t>(j)] != want::split &&
+               (p_.partners != merge_partners::both_ask || want_[static_cast<std::size_t>(j)] == want::merge);
       };
       std::vector<std::vector<edge>> per(cand.size());
       for_each_particle(e, static_cast<index_t>(cand.size()), [&](index_t k) {
@@ -737,7 +755,8 @@ struct split_merge final {
           const double lim = p_.alpha_r * Lij;
           if (!(r2 < lim * lim)) continue;
           const bool i_lo = id_of(i) < id_of(j);
-          out.push_back({r2, i_lo ? id_of(i) : id_of(j), i_lo ? id_of(j) : id_of(i), i_lo ? i : j, i_lo ? j : i});
+          const int rank = p_.partners == merge_partners::alike_first && want_[static_cast<std::size_t>(j)] != want::merge ? 1 : 0;
+          out.push_back({r2, i_lo ? id_of(i) : id_of(j), i_lo ? id_of(j) : id_of(i), i_lo ? i : j, i_lo ? j : i, rank});
         }
       });
       std::vector<edge> edges;
@@ -748,7 +767,7 @@ struct split_merge final {
       }
       std::sort(edges.begin(), edges.end());
       edges.erase(std::unique(edges.begin(), edges.end(),
-                              [](const edge& a, const edge& b) { return a.lo == b.lo && a.hi == b.hi; }),
+                              [](const edge& a, const edge& b) { return a.lo == b.lo && a.hi == b.hi && a.rank == b.rank; }),
                   edges.end());
       // The merge-then-split guard (sequential: it calls the target callable).
       const bool ctx = p_.target_diameter.wants_context();
@@ -770,7 +789,7 @@ struct split_merge final {
         had_valid[static_cast<std::size_t>(ed.i)] = had_valid[static_cast<std::size_t>(ed.j)] = 1;
         valid.push_back(ed);
       }
-      // Greedy on the strict order (r², lo id, hi id) = iterated mutual nearest neighbours.
+      // Greedy on the strict order ((rank,) r², lo id, hi id) = iterated mutual nearest neighbours (within each rank).
       std::vector<std::uint8_t> taken(static_cast<std::size_t>(n), 0);
       for (const edge& ed : valid) {
         if (taken[static_cast<std::size_t>(ed.i)] || taken[static_cast<std::size_t>(ed.j)]) continue;

@@ -1,0 +1,113 @@
+// Speed against error on plane Poiseuille flow (Tanaka 2018 §5.2 / §4.5.2; examples/cases/poiseuille.hpp)
+// with the LSMPS scheme: the channel periodic in x driven by G/ρ, and the 20 mm channel driven by pressure
+// inflow/outflow boundaries, over spacings L; errors at t_end against the start-up series and the steady
+// profile (max over rows / u_max), and the wall time, as CSV, Markdown and PNG (benchmarks/reporter.hpp).
+// Δt = 0.1 L²/ν (the viscous limit; the Courant limit at L = 1 mm), so the cost grows as L⁻⁴ in 2D. Run from the repository root with one
+// thread:
+//
+//   OMP_NUM_THREADS=1 build/benchmarks/bench_report_poiseuille --levels 1,0.5,0.25 --repetitions 3
+//
+// Options: --levels L1,L2,... (mm), --repetitions R, --t-end T (s, default 0.5), --out DIR (default
+// benchmarks/results), --cases periodic,pressure.
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cases/poiseuille.hpp"
+#include "reporter.hpp"
+
+using namespace mpskit;
+
+namespace {
+
+cases::poiseuille_config config(double L_mm, double t_end) {
+  cases::poiseuille_config c;
+  c.L = L_mm * 1e-3;
+  // 0.1 L²/ν (viscous limit), or the Courant limit 0.1 L/|u| with |u| up to 1.2 u_max where that is smaller (L ≥ 0.75 mm)
+  c.dt = std::min(2.5e-4 * (c.L / 0.5e-3) * (c.L / 0.5e-3), 0.1 * c.L / (1.2 * 0.125));
+  c.t_end = t_end;
+  c.probe_times = {};
+  return c;
+}
+
+bench::configuration make(bool pressure, double L_mm, double t_end) {
+  bench::configuration b;
+  b.series = pressure ? "pressure boundaries, 20 mm" : "periodic, body force";
+  std::ostringstream name;
+  name << b.series << " L=" << L_mm << "mm";
+  b.name = name.str();
+  b.l0 = L_mm * 1e-3;
+  b.run = [pressure, L_mm, t_end]() {
+    auto c = config(L_mm, t_end);
+    bench::run_outcome o;
+    if (pressure) {
+      c.length = 0.02;
+      const auto r = cases::run_poiseuille_pressure(c);
+      o.particles = r.particles;
+      o.steps = r.steps;
+      o.wall_seconds = r.wall_seconds;
+      o.ppe_iterations = r.ppe_iterations;
+      o.errors = {{"series", r.end.max_error}, {"steady", r.steady_error}, {"pressure", r.pressure_error}};
+    } else {
+      c.length = std::max(0.005, 10.0 * c.L);  // a period > 2 R_e L (1 + skin)
+      const auto r = cases::run_poiseuille_periodic(c);
+      o.particles = r.particles;
+      o.steps = r.steps;
+      o.wall_seconds = r.wall_seconds;
+      o.ppe_iterations = r.ppe_iterations;
+      o.errors = {{"series", r.end.max_error}, {"steady", r.steady_error}};
+    }
+    return o;
+  };
+  return b;
+}
+
+std::vector<double> parse_list(const std::string& s) {
+  std::vector<double> v;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ',')) v.push_back(std::atof(item.c_str()));
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  std::vector<double> levels{1.0, 0.5};
+  int reps = 1;
+  double t_end = 0.5;
+  bool periodic = true, pressure = true;
+  std::string out = "benchmarks/results";
+  for (int a = 1; a + 1 < argc; a += 2) {
+    const std::string k = argv[a], v = argv[a + 1];
+    if (k == "--levels") levels = parse_list(v);
+    else if (k == "--repetitions") reps = std::atoi(v.c_str());
+    else if (k == "--t-end") t_end = std::atof(v.c_str());
+    else if (k == "--out") out = v;
+    else if (k == "--cases") {
+      periodic = v.find("periodic") != std::string::npos;
+      pressure = v.find("pressure") != std::string::npos;
+    } else fail("report_poiseuille: unknown option '", k, "'");
+  }
+  std::cout << "report_poiseuille (" << MPSKIT_BENCH_FLAGS << "), t_end = " << t_end << " s\n";
+  bench::reporter rep("Poiseuille", reps);
+  for (double L : levels) {
+    if (periodic) rep.add(make(false, L, t_end));
+    if (pressure) rep.add(make(true, L, t_end));
+  }
+  rep.run_all(std::cout);
+  std::filesystem::create_directories(out);
+  const std::filesystem::path csv = std::filesystem::path(out) / "poiseuille_speed_error.csv";
+  const std::filesystem::path png = std::filesystem::path(out) / "poiseuille_speed_error.png";
+  rep.write_csv(csv);
+  std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";
+  if (rep.write_plot(png, "series", std::cout, true)) std::cout << "wrote " << png.string() << "\n";
+  return 0;
+} catch (const std::exception& e) {
+  std::cerr << e.what() << "\n";
+  return 1;
+}
