@@ -10,6 +10,7 @@
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
 #include "cases/taylor_green.hpp"
+#include "mpskit/resolution/split_merge.hpp"
 
 using namespace mpskit;
 
@@ -469,5 +470,51 @@ TEST_SUITE("multi_diameter_channel") {
     // room for the corner spikes (measured max 0.41 m/s; pressure in [−472, 672] Pa: spikes of several hundred Pa at the convex
     // taper corners and the outlet corners are reported, not bounded: docs/channel.md).
     CHECK(r.u_max <= 1.0);
+  }
+}
+
+namespace {
+struct poiseuille_multires_scene : cases::poiseuille_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+}  // namespace
+
+TEST_SUITE("poiseuille_multires") {
+  TEST_CASE("channel: periodic Poiseuille with a 2:1 size ratio, refined at the walls by splitting") {
+    // Issue #9's [poiseuille_multires] with the channel periodic in x (body force G/ρ; split_merge with
+    // boundary::pressure is not composed yet, docs/resolution.md). Starts from the 0.5 mm lattice; target
+    // L* = 0.25 mm within 1.5 mm of a wall, a linear ramp to 1.05 × 0.5 mm at 3.5 mm, so the particles near
+    // the walls split twice in the first steps (0.5 → 0.354 → 0.25 mm) — the paper's A2 layout (0.125 mm at
+    // the walls to 0.5 mm at the centre) at a 2:1 instead of 4:1 ratio. Δt = 0.1 L_f²/ν = 6.25e-5 s.
+    cases::poiseuille_config c;
+    const double Lf = 0.25e-3, H = c.H, Lc = c.L;
+    c.dt = 0.1 * Lf * Lf / (c.mu / c.rho);
+    c.probe_times = {0.05, 0.1};
+    c.params.resolution.target_diameter = [=](const vec<2>& x) {
+      const double d = std::min(x[1], H - x[1]);
+      return Lf + std::clamp((d - 1.5e-3) / 2e-3, 0.0, 1.0) * (1.05 * Lc - Lf);
+    };
+    const auto r = cases::run_poiseuille_periodic<poiseuille_multires_scene>(c);
+    for (const auto& pr : r.probes)
+      std::printf("poiseuille multires t = %.4f s: max err %.4f rms %.4f\n", pr.t, pr.max_error, pr.rms_error);
+    std::printf("poiseuille multires end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, particles %ld -> "
+                "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, %ld steps, %.1f s\n",
+                r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, static_cast<long>(r.particles),
+                static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.steps,
+                r.wall_seconds);
+    // The resolution really is 2:1: fine particles at the walls, the coarse ones kept in the centre.
+    CHECK(r.L_min == doctest::Approx(Lf).epsilon(1e-12));
+    CHECK(r.L_max == doctest::Approx(Lc).epsilon(1e-12));
+    CHECK(r.splits > 100);
+    CHECK(r.particles_end > r.particles);
+    // Issue #9: the profile within 2 % of analytic. Against the start-up series at 0.05 s, 0.1 s and 0.5 s
+    // (measured 0.06 %, 0.06 %, 0.11 %) and the steady profile at 0.5 s (0.73 %; the flow itself still misses
+    // it by 0.7 %: slowest mode).
+    for (const auto& pr : r.probes) {
+      CAPTURE(pr.t);
+      CHECK(pr.max_error <= 0.02);
+    }
+    CHECK(r.end.max_error <= 0.02);
+    CHECK(r.steady_error <= 0.02);
   }
 }

@@ -27,6 +27,22 @@ struct poiseuille_pressure_scene : lsmps_defaults<2> {
   using boundary = mpskit::boundary::pressure;
 };
 
+/// Fills particles_end, L_min, L_max (2D diameters √V) and the split/merge counts of a finished run.
+template <class Sim, class Result>
+void record_sizes(const Sim& sim, Result& r) {
+  const auto& st = sim.state();
+  const auto& V = st.template get<field::volume>();
+  r.particles_end = st.n_real();
+  r.L_min = 1e300;
+  r.L_max = 0.0;
+  for (index_t i = 0; i < st.n_real(); ++i) {
+    r.L_min = std::min(r.L_min, std::sqrt(V[i]));
+    r.L_max = std::max(r.L_max, std::sqrt(V[i]));
+  }
+  r.splits = sim.counters().splits;
+  r.merges = sim.counters().merges;
+}
+
 /// Plane Poiseuille start-up from rest (validation-cases.md D1): u(y, t) = G/(2μ) y(H − y) −
 /// 4 G H²/(μ π³) Σ_{n odd} sin(nπy/H)/n³ exp(−n²π²νt/H²).
 struct poiseuille_exact {
@@ -86,6 +102,9 @@ struct poiseuille_result {
   long ppe_iterations = 0;               ///< total solver iterations
   double wall_seconds = 0.0;             ///< wall time of the run
   index_t particles = 0;                 ///< fluid particles
+  index_t particles_end = 0;             ///< fluid particles at t_end (differs with split/merge or in/outflow)
+  double L_min = 0.0, L_max = 0.0;       ///< smallest and largest diameter V^(1/2) at t_end (m)
+  long splits = 0, merges = 0;           ///< resolution events (scenes with split_merge)
 };
 
 /// The channel's walls: two segments y = 0 (normal +y) and y = H (normal −y), extended by `overhang`
@@ -196,6 +215,7 @@ poiseuille_result run_poiseuille_periodic(poiseuille_config c) {
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.end = profile_error(sim.state(), ex, c.L, sim.time(), false, ax);
   r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true, ax).max_error;
+  record_sizes(sim, r);
   {
     const int ny = static_cast<int>(std::lround(c.H / c.L));
     double us = 0.0;
@@ -275,6 +295,7 @@ poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const bo
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.end = profile_error(sim.state(), ex, c.L, sim.time(), false, 0, lo, hi);
   r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true, 0, lo, hi).max_error;
+  record_sizes(sim, r);
   {
     double us = 0.0;
     long cnt = 0;
