@@ -36,7 +36,7 @@ cases::poiseuille_config config(double L_mm, double t_end) {
 
 bench::configuration make(bool pressure, double L_mm, double t_end) {
   bench::configuration b;
-  b.series = pressure ? "pressure boundaries, 20 mm" : "periodic, body force";
+  b.series = pressure ? "pressure boundaries 20 mm" : "periodic body force";
   std::ostringstream name;
   name << b.series << " L=" << L_mm << "mm";
   b.name = name.str();

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <vector>
 
@@ -77,6 +78,9 @@ struct poiseuille_config {
   double mu = 0.1;          ///< dynamic viscosity (Pa s)
   double t_end = 0.5;       ///< run end (s)
   double dt = 2.5e-4;       ///< fixed Δt (s): the viscous limit 0.1 L²/ν at L = 0.5 mm (Courant gives 4e-4)
+  /// Spacing of the pressure-boundary particles along the faces (m): L when empty; multi-resolution runs
+  /// give the target diameter (boundary::pressure_boundary's spacing constructor).
+  std::function<double(const vec<2>&)> boundary_spacing;
   std::vector<double> probe_times{0.05, 0.1};  ///< times at which the transient is compared with the series
   int axis = 0;             ///< flow (periodic) axis: 0 = x (walls in y), 1 = y (walls in x; the same channel mirrored)
   scheme::lsmps_params<2> params{};  ///< scheme numbers (rho, nu, g, domain, Δt are set from the above)
@@ -267,7 +271,8 @@ poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const bo
   fm.elements.resize(2, 2);
   fm.elements.col(0) << 0, 1;
   fm.elements.col(1) << 2, 3;
-  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {dp, 0.0}, c.L, bp);
+  const auto spacing = [&](const vec<2>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : c.L; };
+  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {dp, 0.0}, spacing, bp);
   simulation<Scene> sim(p, channel_state(ell, c.H, c.L), &walls, &pb);
   const poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
   poiseuille_pressure_result r;

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -41,6 +42,17 @@ enum class boundary_velocity {
   normal_tube,
 };
 
+/// Which distance the outflow test measures.
+enum class outflow_rule {
+  /// Tanaka §4.5.2: fluid within α_o L_i of a boundary particle with u_p·n_p < 0.
+  particle_distance,
+  /// Ours: also fluid within α_o L_i of the face itself (foot of the perpendicular inside it) whose nearest
+  /// boundary particle on that element flows out. A particle arriving between two boundary particles
+  /// (lateral offset up to L_p/2 > α_o L) otherwise reaches the face untouched and sits beside the p = P_b
+  /// points: disordered arrivals (after splitting, or in the multi-diameter channel) blew up there.
+  face_distance,
+};
+
 /// Numbers of the pressure boundary (Tanaka 2018 Table 1).
 struct pressure_params {
   double alpha_o = 0.25;  ///< α_o: outflow removes fluid i with r_ip < α_o L_i (Table 1: 0.25). Range (0, 1]
@@ -53,6 +65,8 @@ struct pressure_params {
   /// the rule r_ip < α_o L_i alone lets a particle passing between two boundary particles (lateral
   /// distance up to L/2 > α_o L) leave the domain (a deviation, docs/channel.md). Counted apart.
   bool remove_behind = true;
+  /// The outflow test (default face_distance, ours; docs/channel.md).
+  outflow_rule outflow = outflow_rule::face_distance;
   /// Velocity of a created particle: LSMPS type B at x_l (Tanaka §4.5.2) or, when false, the boundary
   /// particle's averaged velocity (for comparison; docs/channel.md).
   bool inflow_lsmps_b = true;
@@ -109,9 +123,25 @@ class pressure_boundary {
   /// largest spacing of the boundary particles (m), usually the fluid's diameter.
   pressure_boundary(geometry::polygon_set<D> faces, std::vector<double> element_pressure, double L,
                     const pressure_params& p = {})
+      : pressure_boundary(std::move(faces), std::move(element_pressure), checked_spacing(L), p) {}
+
+  /// Multi-resolution: the spacing follows a target diameter L*(x) along the faces (the issue's "target
+  /// diameter in multi-resolution" for created particles, ours for the placement). In 2D a segment is cut
+  /// into n = ⌈∫ ds / L*⌉ pieces of equal ∫ ds / L* (each piece ≈ L* long where it lies), one particle at
+  /// each piece's centre, L_p = the piece's length; in 3D each triangle is cut uniformly with the smallest
+  /// L* at its vertices and centroid. A constant L* gives the constant-L placement exactly.
+  template <class Spacing>
+    requires std::is_invocable_r_v<double, const Spacing&, const vec<D>&>
+  pressure_boundary(geometry::polygon_set<D> faces, std::vector<double> element_pressure, const Spacing& spacing,
+                    const pressure_params& p = {})
       : faces_(std::move(faces)), pressure_(std::move(element_pressure)), p_(p) {
     p_.validate();
-    if (!(std::isfinite(L) && L > 0.0)) fail("boundary::pressure_boundary: L = ", L, ", accepted range (0, inf)");
+    const auto Ls = [&](const vec<D>& y) {
+      const double v = spacing(y);
+      if (!(std::isfinite(v) && v > 0.0))
+        fail("boundary::pressure_boundary: spacing L = ", v, " at (", y.transpose(), "), accepted range (0, inf)");
+      return v;
+    };
     if (static_cast<index_t>(pressure_.size()) != faces_.size())
       fail("boundary::pressure_boundary: ", pressure_.size(), " pressures for ", faces_.size(),
            " face elements (one P_b per element)");
@@ -126,10 +156,31 @@ class pressure_boundary {
       if constexpr (D == 2) {
         const vec<D> a = v.col(0), b = v.col(1);
         const double len = (b - a).norm();
-        const int m = std::max(1, static_cast<int>(std::ceil(len / L - 1e-9)));
+        // φ(s) = ∫_0^s ds'/L*(s') by the trapezoidal rule on M samples (16 per smallest L* of a first pass)
+        double lmin = 1e300;
+        for (int q = 0; q <= 256; ++q) lmin = std::min(lmin, Ls(vec<D>(a + (q / 256.0) * (b - a))));
+        const int M = std::max(256, 16 * static_cast<int>(std::ceil(len / lmin)));
+        std::vector<double> phi(static_cast<std::size_t>(M) + 1, 0.0);
+        double inv_prev = 1.0 / Ls(a);
+        for (int q = 1; q <= M; ++q) {
+          const double inv = 1.0 / Ls(vec<D>(a + (double(q) / M) * (b - a)));
+          phi[static_cast<std::size_t>(q)] = phi[static_cast<std::size_t>(q) - 1] + 0.5 * (inv + inv_prev) * len / M;
+          inv_prev = inv;
+        }
+        const double Phi = phi.back();
+        const int m = std::max(1, static_cast<int>(std::ceil(Phi - 1e-9)));
+        const auto s_of = [&](double target) {  // arc length where φ = target (linear inverse)
+          const auto it = std::lower_bound(phi.begin(), phi.end(), target);
+          const std::size_t q = static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(it - phi.begin(), 1, M));
+          const double f = (target - phi[q - 1]) / std::max(phi[q] - phi[q - 1], 1e-300);
+          return (double(q - 1) + std::clamp(f, 0.0, 1.0)) * len / M;
+        };
+        const bool uniform = Phi * lmin >= len * (1.0 - 1e-12);  // a constant spacing: equal pieces exactly
         for (int k = 0; k < m; ++k) {
-          xs.push_back(a + (k + 0.5) / m * (b - a));
-          ls.push_back(len / m);
+          const double s0 = uniform ? len * k / m : s_of(Phi * k / m);
+          const double s1 = uniform ? len * (k + 1) / m : (k + 1 == m ? len : s_of(Phi * (k + 1) / m));
+          xs.push_back(uniform ? vec<D>(a + (k + 0.5) / m * (b - a)) : vec<D>(a + (0.5 * (s0 + s1) / len) * (b - a)));
+          ls.push_back(uniform ? len / m : s1 - s0);
           ns.push_back(nrm);
           ps.push_back(pressure_[static_cast<std::size_t>(e)]);
           es.push_back(e);
@@ -137,6 +188,7 @@ class pressure_boundary {
       } else {
         const vec<D> a = v.col(0), b = v.col(1), c = v.col(2);
         const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+        const double L = std::min({Ls(a), Ls(b), Ls(c), Ls(vec<D>((a + b + c) / 3.0))});
         const int m = std::max(1, static_cast<int>(std::ceil(longest / L - 1e-9)));
         const double area = 0.5 * (b - a).cross(c - a).norm();
         const vec<D> e1 = (b - a) / m, e2 = (c - a) / m;
@@ -242,16 +294,35 @@ class pressure_boundary {
         }
       }
     }
-    if (!p_.remove_behind) return;
+    const bool by_face = p_.outflow == outflow_rule::face_distance;
+    if (!p_.remove_behind && !by_face) return;
     for (index_t i = 0; i < n_fluid; ++i) {
       if (remove[static_cast<std::size_t>(i)]) continue;
       const vec<D> xi = x.col(i);
       const geometry::closest_point<D> c = faces_.closest(xi, 2.0 * L[i]);
       if (!c.found() || c.kind != geometry::feature_kind::face) continue;
-      if ((xi - c.point).dot(faces_.element_normal(c.element)) < 0.0) {
+      const double h = (xi - c.point).dot(faces_.element_normal(c.element));
+      if (p_.remove_behind && h < 0.0) {
         remove[static_cast<std::size_t>(i)] = 1;
         ++flux.behind;
         flux.outflow_volume += V[i];
+      } else if (by_face && h < p_.alpha_o * L[i]) {
+        // the nearest boundary particle of that element decides whether the face flows out there
+        index_t best = npos;
+        double d2 = 1e300;
+        for (index_t k = 0; k < size(); ++k) {
+          if (element_[static_cast<std::size_t>(k)] != c.element) continue;
+          const double dk = (x_.col(k) - c.point).squaredNorm();
+          if (dk < d2) {
+            d2 = dk;
+            best = k;
+          }
+        }
+        if (best != npos && u_boundary.col(best).dot(n_.col(best)) < 0.0) {
+          remove[static_cast<std::size_t>(i)] = 1;
+          ++flux.outflow;
+          flux.outflow_volume += V[i];
+        }
       }
     }
   }
@@ -314,6 +385,11 @@ class pressure_boundary {
   }
 
  private:
+  static auto checked_spacing(double L) {
+    if (!(std::isfinite(L) && L > 0.0)) fail("boundary::pressure_boundary: L = ", L, ", accepted range (0, inf)");
+    return [L](const vec<D>&) { return L; };
+  }
+
   geometry::polygon_set<D> faces_;
   std::vector<double> pressure_;
   pressure_params p_;

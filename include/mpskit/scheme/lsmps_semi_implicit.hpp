@@ -260,10 +260,6 @@ class lsmps_semi_implicit {
   static constexpr bool has_pressure_boundary = std::is_same_v<boundary_type, boundary::pressure>;
   static_assert(has_pressure_boundary || std::is_same_v<boundary_type, no_pressure_boundary>,
                 "mpskit: the LSMPS scheme's Scene::boundary is boundary::pressure (Tanaka §4.5.2) or absent");
-  // Both stages read this step's neighbour list and then resize the state: one would run on the other's
-  // stale indices. Not yet combined (issue #9 item 3).
-  static_assert(!(has_resolution && has_pressure_boundary),
-                "mpskit: resolution::split_merge with boundary::pressure is not implemented yet");
   static_assert(ppe::SecondDerivativeOperator<op_type>,
                 "mpskit: the det F source (Tanaka 2018 eq. 63) needs every second derivative separately: "
                 "use LSMPS type A of order >= 2 (classic MPS and order 1 cannot give them)");
@@ -480,9 +476,38 @@ class lsmps_semi_implicit {
     }
     if (p_.domain.any_periodic())
       for (index_t i = 0; i < n; ++i) s_.x().col(i) = p_.domain.wrap(s_.x().col(i));
-    if constexpr (has_resolution) resolve_sizes();
-    // 13. Pressure-boundary outflow and inflow (Tanaka §4.5.2) through the state's resize path.
-    if constexpr (has_pressure_boundary) exchange_through_boundary();
+    // 12–13. Resolution stage and pressure-boundary outflow/inflow (Tanaka §4.5.2). Both read this step's
+    //        neighbour list and resize the state: the exchange is decided first (on the list), the particles
+    //        leaving take no part in split/merge, the resolution stage resizes, then the exchange is applied
+    //        with its removal marks carried through the stage's old_to_new map.
+    if constexpr (has_pressure_boundary) {
+      boundary_exchange plan = plan_boundary_exchange();
+      if constexpr (has_resolution) {
+        resolve_sizes(&plan.remove);
+        if (last_resolution_.splits + last_resolution_.merges > 0) {  // else no resize: the marks hold
+        std::vector<std::uint8_t> moved(static_cast<std::size_t>(s_.n_real()), 0);
+        const auto& o2n = last_resolution_.resize.old_to_new;
+        for (std::size_t i = 0; i < plan.remove.size(); ++i)
+          if (plan.remove[i]) {
+            // frozen particles take part in no event, so each is kept in exactly one slot
+            if (i >= o2n.size() || o2n[i] == npos)
+              fail("lsmps_semi_implicit: a particle leaving through a pressure boundary was lost by split/merge");
+            moved[static_cast<std::size_t>(o2n[i])] = 1;
+          }
+        plan.remove = std::move(moved);
+        }
+      }
+      apply_boundary_exchange(plan);
+      if constexpr (has_resolution) {
+        ledger_.add_flux("pressure_inflow", plan.flux.inflow_volume, plan.inflow_momentum, plan.flux.inflow);
+        ledger_.add_flux("pressure_outflow", -plan.flux.outflow_volume, -plan.outflow_momentum,
+                         -(plan.flux.outflow + plan.flux.behind));
+        ledger_.close_step();
+      }
+    } else if constexpr (has_resolution) {
+      resolve_sizes();
+      ledger_.close_step();
+    }
     t_ += dt;
     ++c_.steps;
     check_finite();
@@ -600,24 +625,41 @@ class lsmps_semi_implicit {
     });
   }
 
-  /// Step end (Tanaka §4.5.2): outflow removal and inflow creation decided at the moved positions with the
-  /// boundary velocities averaged from the corrected fluid velocities; ghosts cleared, then one remove and
-  /// one append through the state's resize path; counted as boundary fluxes.
-  void exchange_through_boundary() {
+  /// What the step end does at the pressure boundaries: the removal marks (real particles), the particles
+  /// to create, the fluxes.
+  struct boundary_exchange {
+    std::vector<std::uint8_t> remove;
+    std::vector<boundary::inflow_particle<D>> born;
+    boundary::pressure_flux flux;
+    vec<D> inflow_momentum = vec<D>::Zero(), outflow_momentum = vec<D>::Zero();  ///< Σ V u (ledger)
+  };
+
+  /// Step end (Tanaka §4.5.2), decided on this step's list: outflow removal and inflow creation at the moved
+  /// positions with the boundary velocities averaged from the corrected fluid velocities.
+  boundary_exchange plan_boundary_exchange() {
     const index_t n = s_.n_real(), nb = pb_->size();
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
     points<D> ub(D, nb);
     for (index_t k = 0; k < nb; ++k)
       ub.col(k) = pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, s_.u(), participates);
     const auto& V = s_.template get<field::volume>();
-    std::vector<std::uint8_t> remove(static_cast<std::size_t>(n), 0);
-    boundary::pressure_flux flux;
-    pb_->mark_outflow(s_.x(), L_, n, nc_, ub, nl_, remove, flux, V);
-    std::vector<boundary::inflow_particle<D>> born;
-    pb_->find_inflow(s_.x(), s_.u(), L_, n, nc_, ub, nl_, remove,
-                     [&](index_t j) { return j < nc_ && participates(j); }, p_.op, born);
+    boundary_exchange plan;
+    plan.remove.assign(static_cast<std::size_t>(n), 0);
+    pb_->mark_outflow(s_.x(), L_, n, nc_, ub, nl_, plan.remove, plan.flux, V);
+    for (index_t i = 0; i < n; ++i)
+      if (plan.remove[static_cast<std::size_t>(i)]) plan.outflow_momentum += V[i] * s_.u().col(i);
+    pb_->find_inflow(s_.x(), s_.u(), L_, n, nc_, ub, nl_, plan.remove,
+                     [&](index_t j) { return j < nc_ && participates(j); }, p_.op, plan.born);
+    return plan;
+  }
+
+  /// Applies a planned exchange: ghosts cleared, then one remove and one append through the state's resize
+  /// path; counted as boundary fluxes.
+  void apply_boundary_exchange(boundary_exchange& plan) {
+    auto& flux = plan.flux;
+    const auto& born = plan.born;
     s_.clear_ghosts();
-    if (flux.outflow + flux.behind > 0) s_.remove(remove);
+    if (flux.outflow + flux.behind > 0) s_.remove(plan.remove);
     if (!born.empty()) {
       const index_t first = s_.append(static_cast<index_t>(born.size()), kind::fluid);
       auto& Vn = s_.template get<field::volume>();
@@ -629,6 +671,7 @@ class lsmps_semi_implicit {
         Vn[i] = std::pow(born[b].L, D);
         pres[i] = born[b].p;
         flux.inflow_volume += Vn[i];
+        plan.inflow_momentum += Vn[i] * born[b].u;
       }
       flux.inflow = static_cast<index_t>(born.size());
     }
@@ -638,6 +681,7 @@ class lsmps_semi_implicit {
     c_.inflow_volume += flux.inflow_volume;
     c_.outflow_volume += flux.outflow_volume;
     last_flux_ = flux;
+    if constexpr (has_resolution) sizes_from_volumes();
   }
 
   /// Tanaka's shifting (eqs. 93–100) from this step's list at x^k; δu = ∇u δx (eq. 91) with the corrected
@@ -956,13 +1000,21 @@ class lsmps_semi_implicit {
 
   /// 12. Resolution stage (docs/resolution.md): split/merge on this step's list, diameters, normals and flags
   /// (the ghosts are dropped by its one resize); diameters refreshed for diameter().
-  void resolve_sizes() {
+  /// frozen (optional, one entry per real particle): particles that take part in no event this step (those
+  /// leaving through a pressure boundary), passed to split/merge with the isolated bit set.
+  void resolve_sizes(const std::vector<std::uint8_t>* frozen = nullptr) {
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    const std::vector<flag::type>* flags = nullptr;
+    if (frozen) {
+      frozen_flags_ = s_.flags();
+      for (std::size_t i = 0; i < frozen->size(); ++i)
+        if ((*frozen)[i]) frozen_flags_[i] |= flag::isolated;
+      flags = &frozen_flags_;
+    }
     last_resolution_ = detail::run_resolution_stage<resolution_type>(s_, nl_, L_, normal_, walls_, xold_, op_, participates,
-                                                                     p_.resolution, ledger_);
+                                                                     p_.resolution, ledger_, flags);
     c_.splits += static_cast<long>(last_resolution_.splits);
     c_.merges += static_cast<long>(last_resolution_.merges);
-    ledger_.close_step();
     sizes_from_volumes();
   }
 
@@ -997,6 +1049,7 @@ class lsmps_semi_implicit {
   ppe::solve_report last_solve_{};
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
+  std::vector<flag::type> frozen_flags_;  // the state's flags with frozen particles marked isolated
   resolution::split_merge_report<D> last_resolution_{};
   double t_ = 0.0, dt_ = 0.0;
 };
