@@ -82,8 +82,9 @@ double kinetic_energy(const State& s, double rho) {
 }
 
 /// Runs the vortex with Scene (taylor_green_scene or a variant).
-template <class Scene = taylor_green_scene>
-taylor_green_result run_taylor_green(taylor_green_config c) {
+/// The scheme numbers of the case: c.params with ρ, ν = 0, no gravity and the box periodic in both axes (Δt is
+/// the caller's).
+inline scheme::lsmps_params<2> taylor_green_params(const taylor_green_config& c) {
   auto p = c.params;
   p.rho = c.rho;
   p.nu = 0.0;
@@ -91,6 +92,12 @@ taylor_green_result run_taylor_green(taylor_green_config c) {
   p.domain.periodic = {true, true};
   p.domain.lo = vec<2>::Zero();
   p.domain.hi = vec<2>::Constant(c.width);
+  return p;
+}
+
+template <class Scene = taylor_green_scene>
+taylor_green_result run_taylor_green(taylor_green_config c) {
+  auto p = taylor_green_params(c);
   const double L = c.width / c.n;
   // Tanaka: Courant α_C = 0.1 and a constant Δt in the source. A fixed Δt = 0.09 L/U: at 0.1 L/U the
   // controller halved Δt as soon as some particle exceeded U by 0.2 %, and the det F source (∝ 1/Δt²)
