@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "cases/duct.hpp"
 #include "cases/multi_diameter_channel.hpp"
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
@@ -337,7 +338,8 @@ TEST_SUITE("pressure_boundary") {
     const boundary::pressure_boundary<2> pb3(geometry::polygon_set<2>(m), {5.0}, 0.5e-3);
     CHECK(pb3.size() == 3);
     CHECK(pb3.diameters()[0] == doctest::Approx(1.1e-3 / 3));
-    // 3D: a right triangle with legs 2 L: 4 sub-triangles, the diameters' squares add up to the area.
+    // 3D: a right triangle with legs 2 L (area 2 L²): n = ⌈√2⌉ = 2, 4 sub-triangles of L_p = 0.71 L, the
+    // diameters' squares add up to the area.
     geometry::polygon_mesh<3> t;
     t.vertices.resize(3, 3);
     t.vertices.col(0) = vec<3>(0, 0, 0);
@@ -346,7 +348,8 @@ TEST_SUITE("pressure_boundary") {
     t.elements.resize(3, 1);
     t.elements.col(0) << 0, 1, 2;
     const boundary::pressure_boundary<3> pt(geometry::polygon_set<3>(t), {1.0}, 0.5e-3);
-    CHECK(pt.size() == 9);  // ⌈√2 mm / 0.5 mm⌉ = 3 → 9 sub-triangles
+    CHECK(pt.size() == 4);  // ⌈√(0.5 mm²) / 0.5 mm⌉ = 2 → 4 sub-triangles
+    CHECK(pt.diameters().maxCoeff() <= 0.5e-3);
     CHECK(pt.diameters().array().square().sum() == doctest::Approx(0.5e-6));
     CHECK(pt.normals()(2, 0) == doctest::Approx(1.0));
   }
@@ -617,5 +620,27 @@ TEST_SUITE("poiseuille_multires") {
     // Issue #9: the profile within 2 % of analytic (the series; measured 0.05 % at 0.05 s and 0.1 s).
     CHECK(r.probes[0].max_error <= 0.02);
     CHECK(r.end.max_error <= 0.02);
+  }
+}
+
+TEST_SUITE("poiseuille") {
+  TEST_CASE("channel: 3D square duct driven through pressure inflow/outflow faces, against the start-up series") {
+    // Issue #8 item 1 in 3D: W = 4 mm square duct, ℓ = 8 mm, L = 0.5 mm (1024 particles), Δp = 8 Pa (G = 1000
+    // Pa/m), μ = 0.1 Pa s, the faces two triangles each (boundary particles L_p = 0.47 mm), to 0.05 s (six times
+    // the slowest mode's time constant W²/(2π²ν) = 8 ms). Error: max over the (y, z) cells of the mid-length slab
+    // of |ū − u(y, z, t)| / u_c against the double sine series (examples/cases/duct.hpp), u_c = 0.0118 m/s the
+    // steady centre velocity. Measured 2.0 % (RMS 1.3 %); the same duct periodic with the body force: 2.1 %
+    // (1.4 %), so the faces add nothing measurable; 3 % is the issue's 3D tolerance (pipe).
+    cases::duct_config c;
+    const auto r = cases::run_duct(c);
+    std::printf("3D pressure duct: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles %ld -> %ld, "
+                "ledger %.1e, guarded %ld, %.1f s\n",
+                r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
+                static_cast<long>(r.particles_end), r.ledger_error, r.guarded, r.wall_seconds);
+    CHECK(r.max_error <= 0.03);
+    CHECK(r.outflow > 20);  // the first layer has left through the outlet face
+    CHECK(r.inflow > 0);
+    CHECK(r.ledger_error <= 1e-12);
+    CHECK(r.guarded == 0);
   }
 }

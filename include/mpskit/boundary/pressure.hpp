@@ -113,7 +113,7 @@ struct inflow_particle {
 
 /// Pressure-boundary particles placed in advance on polygon faces: in 2D each segment is cut into
 /// n = ⌈|b − a| / L⌉ equal pieces with a particle at each piece's centre (L_p = |b − a| / n); in 3D each
-/// triangle into n² similar triangles (n = ⌈longest edge / L⌉) with a particle at each centroid
+/// triangle into n² similar triangles (n = ⌈√area / L⌉: one particle per L² of face) with a particle at each centroid
 /// (L_p = √(area / n²)). The normal is the element's winding normal (it must point into the fluid) and the
 /// pressure that of the element.
 template <int D>
@@ -187,10 +187,12 @@ class pressure_boundary {
         }
       } else {
         const vec<D> a = v.col(0), b = v.col(1), c = v.col(2);
-        const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
         const double L = std::min({Ls(a), Ls(b), Ls(c), Ls(vec<D>((a + b + c) / 3.0))});
-        const int m = std::max(1, static_cast<int>(std::ceil(longest / L - 1e-9)));
         const double area = 0.5 * (b - a).cross(c - a).norm();
+        // m² particles of area A/m² each, m = ⌈√A / L⌉: one particle per L² of face, L_p = √A/m ≤ L. (Cutting
+        // by the longest edge, m = ⌈longest/L⌉, gave L_p ≈ L/2 on right triangles: inflow then created
+        // particles of an eighth of the fluid's volume.)
+        const int m = std::max(1, static_cast<int>(std::ceil(std::sqrt(area) / L - 1e-9)));
         const vec<D> e1 = (b - a) / m, e2 = (c - a) / m;
         for (int i = 0; i < m; ++i)
           for (int j = 0; i + j < m; ++j) {
