@@ -8,7 +8,8 @@
 //   OMP_NUM_THREADS=1 build/benchmarks/bench_report_poiseuille --levels 1,0.5,0.25 --repetitions 3
 //
 // Options: --levels L1,L2,... (mm), --repetitions R, --t-end T (s, default 0.5), --out DIR (default
-// benchmarks/results), --cases periodic,pressure.
+// benchmarks/results), --cases periodic,pressure, --multires on (adds the 2:1 multi-resolution runs of
+// docs/resolution.md; results to poiseuille_multires_speed_error.*).
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "cases/poiseuille.hpp"
+#include "mpskit/resolution/split_merge.hpp"
 #include "reporter.hpp"
 
 using namespace mpskit;
@@ -32,6 +34,57 @@ cases::poiseuille_config config(double L_mm, double t_end) {
   c.t_end = t_end;
   c.probe_times = {};
   return c;
+}
+
+struct periodic_multires_scene : cases::poiseuille_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+struct pressure_multires_scene : cases::poiseuille_pressure_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+
+/// Multi-resolution 2:1 (docs/resolution.md, label poiseuille_multires): from the 0.5 mm lattice, L* = 0.25 mm
+/// within 1.5 mm of a wall, a ramp to 0.525 mm at 3.5 mm; Δt = 0.1 (0.24 mm)²/ν (pressure faces: the smallest
+/// boundary piece is 0.248 mm) or 0.1 (0.25 mm)²/ν (periodic).
+bench::configuration make_multires(bool pressure, double t_end) {
+  bench::configuration b;
+  b.series = pressure ? "pressure boundaries 20 mm 2:1" : "periodic body force 2:1";
+  b.name = b.series + " 0.25-0.5mm";
+  b.l0 = 0.25e-3;
+  b.run = [pressure, t_end]() {
+    cases::poiseuille_config c;
+    c.t_end = t_end;
+    c.probe_times = {};
+    const double Lf = 0.25e-3, H = c.H, Lc = c.L;
+    const auto target = [=](const vec<2>& x) {
+      const double d = std::min(x[1], H - x[1]);
+      return Lf + std::clamp((d - 1.5e-3) / 2e-3, 0.0, 1.0) * (1.05 * Lc - Lf);
+    };
+    c.params.resolution.target_diameter = target;
+    bench::run_outcome o;
+    if (pressure) {
+      c.length = 0.02;
+      c.dt = 0.1 * 0.24e-3 * 0.24e-3 / (c.mu / c.rho);
+      c.boundary_spacing = [=](const vec<2>& x) { return std::min(Lc, target(x)); };
+      const auto r = cases::run_poiseuille_pressure<pressure_multires_scene>(c);
+      o.particles = r.particles_end;
+      o.steps = r.steps;
+      o.wall_seconds = r.wall_seconds;
+      o.ppe_iterations = r.ppe_iterations;
+      o.errors = {{"series", r.end.max_error}, {"steady", r.steady_error}, {"pressure", r.pressure_error}};
+    } else {
+      c.length = 0.005;
+      c.dt = 0.1 * Lf * Lf / (c.mu / c.rho);
+      const auto r = cases::run_poiseuille_periodic<periodic_multires_scene>(c);
+      o.particles = r.particles_end;
+      o.steps = r.steps;
+      o.wall_seconds = r.wall_seconds;
+      o.ppe_iterations = r.ppe_iterations;
+      o.errors = {{"series", r.end.max_error}, {"steady", r.steady_error}};
+    }
+    return o;
+  };
+  return b;
 }
 
 bench::configuration make(bool pressure, double L_mm, double t_end) {
@@ -80,7 +133,7 @@ int main(int argc, char** argv) try {
   std::vector<double> levels{1.0, 0.5};
   int reps = 1;
   double t_end = 0.5;
-  bool periodic = true, pressure = true;
+  bool periodic = true, pressure = true, multires = false;
   std::string out = "benchmarks/results";
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
@@ -88,6 +141,7 @@ int main(int argc, char** argv) try {
     else if (k == "--repetitions") reps = std::atoi(v.c_str());
     else if (k == "--t-end") t_end = std::atof(v.c_str());
     else if (k == "--out") out = v;
+    else if (k == "--multires") multires = v == "1" || v == "on";
     else if (k == "--cases") {
       periodic = v.find("periodic") != std::string::npos;
       pressure = v.find("pressure") != std::string::npos;
@@ -99,10 +153,15 @@ int main(int argc, char** argv) try {
     if (periodic) rep.add(make(false, L, t_end));
     if (pressure) rep.add(make(true, L, t_end));
   }
+  if (multires) {
+    if (periodic) rep.add(make_multires(false, t_end));
+    if (pressure) rep.add(make_multires(true, t_end));
+  }
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);
-  const std::filesystem::path csv = std::filesystem::path(out) / "poiseuille_speed_error.csv";
-  const std::filesystem::path png = std::filesystem::path(out) / "poiseuille_speed_error.png";
+  const std::string stem = multires ? "poiseuille_multires_speed_error" : "poiseuille_speed_error";
+  const std::filesystem::path csv = std::filesystem::path(out) / (stem + ".csv");
+  const std::filesystem::path png = std::filesystem::path(out) / (stem + ".png");
   rep.write_csv(csv);
   std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";
   if (rep.write_plot(png, "series", std::cout, true)) std::cout << "wrote " << png.string() << "\n";
