@@ -221,6 +221,10 @@ class pressure_boundary {
       P_[k] = ps[static_cast<std::size_t>(k)];
     }
     element_ = std::move(es);
+    element_begin_.assign(static_cast<std::size_t>(faces_.size()) + 1, n);
+    for (index_t k = n; k-- > 0;) element_begin_[static_cast<std::size_t>(element_[static_cast<std::size_t>(k)])] = k;
+    for (std::size_t e = element_begin_.size() - 1; e-- > 0;)  // elements without a particle: empty ranges
+      element_begin_[e] = std::min(element_begin_[e], element_begin_[e + 1]);
   }
 
   index_t size() const { return x_.cols(); }                        ///< number of boundary particles
@@ -309,11 +313,12 @@ class pressure_boundary {
         ++flux.behind;
         flux.outflow_volume += V[i];
       } else if (by_face && h < p_.alpha_o * L[i]) {
-        // the nearest boundary particle of that element decides whether the face flows out there
+        // the nearest boundary particle of that element decides whether the face flows out there (an
+        // element's particles are consecutive: [element_begin_[e], element_begin_[e + 1]))
         index_t best = npos;
         double d2 = 1e300;
-        for (index_t k = 0; k < size(); ++k) {
-          if (element_[static_cast<std::size_t>(k)] != c.element) continue;
+        const std::size_t e = static_cast<std::size_t>(c.element);
+        for (index_t k = element_begin_[e]; k < element_begin_[e + 1]; ++k) {
           const double dk = (x_.col(k) - c.point).squaredNorm();
           if (dk < d2) {
             d2 = dk;
@@ -398,6 +403,7 @@ class pressure_boundary {
   points<D> x_, n_;
   Eigen::VectorXd L_, P_;
   std::vector<index_t> element_;
+  std::vector<index_t> element_begin_;  // first particle of each element (size elements + 1)
 };
 
 }  // namespace mpskit::boundary

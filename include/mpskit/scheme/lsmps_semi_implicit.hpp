@@ -484,18 +484,7 @@ class lsmps_semi_implicit {
       boundary_exchange plan = plan_boundary_exchange();
       if constexpr (has_resolution) {
         resolve_sizes(&plan.remove);
-        if (last_resolution_.splits + last_resolution_.merges > 0) {  // else no resize: the marks hold
-        std::vector<std::uint8_t> moved(static_cast<std::size_t>(s_.n_real()), 0);
-        const auto& o2n = last_resolution_.resize.old_to_new;
-        for (std::size_t i = 0; i < plan.remove.size(); ++i)
-          if (plan.remove[i]) {
-            // frozen particles take part in no event, so each is kept in exactly one slot
-            if (i >= o2n.size() || o2n[i] == npos)
-              fail("lsmps_semi_implicit: a particle leaving through a pressure boundary was lost by split/merge");
-            moved[static_cast<std::size_t>(o2n[i])] = 1;
-          }
-        plan.remove = std::move(moved);
-        }
+        if (last_resolution_.splits + last_resolution_.merges > 0) remap_marks(plan.remove);  // else no resize
       }
       apply_boundary_exchange(plan);
       if constexpr (has_resolution) {
@@ -651,6 +640,20 @@ class lsmps_semi_implicit {
     pb_->find_inflow(s_.x(), s_.u(), L_, n, nc_, ub, nl_, plan.remove,
                      [&](index_t j) { return j < nc_ && participates(j); }, p_.op, plan.born);
     return plan;
+  }
+
+  /// Carries removal marks through the resolution stage's resize (old_to_new). Marked particles were frozen
+  /// (no event), so each is kept in exactly one slot.
+  void remap_marks(std::vector<std::uint8_t>& marks) const {
+    std::vector<std::uint8_t> moved(static_cast<std::size_t>(s_.n_real()), 0);
+    const auto& o2n = last_resolution_.resize.old_to_new;
+    for (std::size_t i = 0; i < marks.size(); ++i) {
+      if (!marks[i]) continue;
+      if (i >= o2n.size() || o2n[i] == npos)
+        fail("lsmps_semi_implicit: a particle leaving through a pressure boundary was lost by split/merge");
+      moved[static_cast<std::size_t>(o2n[i])] = 1;
+    }
+    marks = std::move(moved);
   }
 
   /// Applies a planned exchange: ghosts cleared, then one remove and one append through the state's resize
