@@ -771,19 +771,22 @@ class lsmps_semi_implicit {
     // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on the
     // face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq. 62
     // pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at t = 0.02 s).
+    // The same next to a wall (a deviation, docs/lsmps_scheme.md): the copies on the wall bias c (1.08–1.20
+    // within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at rest (3e-2 √(gH)
+    // within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to −14 kPa.
     // The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface particle, or one
     // with a copy, a pressure-boundary or a surface particle among its neighbours.
-    near_surface_.assign(static_cast<std::size_t>(nt), 0);
+    fixed_volume_.assign(static_cast<std::size_t>(nt), 0);
     if constexpr (has_surface || has_pressure_boundary || has_walls) {
       for_each_particle(exec::par{}, n, [&](index_t i) {
         const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
         bool near = false, band = surface_[static_cast<std::size_t>(i)] != 0;
         nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
-          const bool open = (j < n && surface_[static_cast<std::size_t>(j)]) || j >= nc_;
+          const bool open = j >= n || surface_[static_cast<std::size_t>(j)];  // copy, boundary particle, surface
           if (open && r2 < reach * reach) near = true;
           band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0;
         });
-        near_surface_[static_cast<std::size_t>(i)] = near;
+        fixed_volume_[static_cast<std::size_t>(i)] = near;
         one_sided_[static_cast<std::size_t>(i)] = band;
       });
     }
@@ -840,8 +843,9 @@ class lsmps_semi_implicit {
           const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
           op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
         }
-        // Copies have no volume correction of their own; nor do particles near the free surface (below).
-        const double c_i = i < n && !near_surface_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
+        // Copies have no volume correction of their own; nor do particles near a free surface, a wall or a
+        // pressure boundary (c′ = 1, above).
+        const double c_i = i < n && !fixed_volume_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
         b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
       }
       row.merge();
@@ -1043,7 +1047,7 @@ class lsmps_semi_implicit {
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, dx_, filter_du_;
-  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, near_surface_, one_sided_;
+  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
   std::vector<op::row_entries> row_buf_;  ///< PPE rows of the step (reused: capacity kept)
