@@ -529,9 +529,58 @@ TEST_SUITE("multi_diameter_channel") {
     CHECK(r.ledger_error <= 1e-12);
     CHECK(r.guarded == 0);
     // Not an explosion: |u| below the Bernoulli speed of the whole 100 Pa drop, √(2Δp/ρ) = 0.45 m/s, with
-    // room for the corner spikes (measured max 0.42 m/s; pressure in [−480, 800] Pa: spikes of several hundred Pa at the convex
-    // taper corners and the outlet corners are reported, not bounded: docs/channel.md).
+    // room for the corner spikes (measured max 0.42 m/s; pressure in [−1014, 1044] Pa: spikes of several hundred Pa at the
+    // convex taper corners and the outlet corners are reported, not bounded: docs/channel.md).
     CHECK(r.u_max <= 1.0);
+  }
+}
+
+namespace {
+struct multi_diameter_multires_scene : cases::multi_diameter_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+}  // namespace
+
+TEST_SUITE("multi_diameter_channel_multires") {
+  TEST_CASE("channel: multi-diameter channel with splitting into the narrow section, 2:1 (Tanaka 2018 §5.3, A3)") {
+    // Issue #9: the channel of the multi_diameter_channel label started at L = 1 mm everywhere; the target diameter
+    // depends on the distance d from the outlet's midpoint (90, 0) mm, as in the paper (Fig. 12b; the function is
+    // not in the text, this one is ours): 0.5 mm for d ≤ 30 mm (the narrow section), a linear ramp to 1.05 mm at
+    // d = 60 mm, so particles split twice (1 → 0.71 → 0.5 mm) entering the narrow section. 2:1 in diameter (the
+    // paper 0.25–0.75 mm, 3:1). The faces carry the target spacing (outlet 0.5 mm, inlet 1 mm), so inflow creates
+    // coarse particles. Same balance as the single-resolution label, over the last 0.1 s of 0.3 s.
+    cases::multi_diameter_config c;
+    const double Lc = c.L, Lf = 0.5 * c.L;
+    const auto target = [=](const vec<2>& x) {
+      const double d = (x - vec<2>(0.09, 0.0)).norm();
+      return Lf + std::clamp((d - 0.03) / 0.03, 0.0, 1.0) * (1.05 * Lc - Lf);
+    };
+    c.params.resolution.target_diameter = target;
+    c.boundary_spacing = [=](const vec<2>& x) { return std::min(Lc, target(x)); };
+    const auto r = cases::run_multi_diameter<multi_diameter_multires_scene>(c);
+    std::printf("multi-diameter channel multires: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), particles %ld -> "
+                "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld behind %ld, guarded %ld, ledger %.1e, p in "
+                "[%.0f, %.0f] Pa (min at (%.1f, %.1f) mm, t = %.4f s), |u|max %.3f m/s (last 0.1 s: %.3f), %ld steps, %.1f s\n",
+                r.balance, r.q_in, r.q_out, r.dvdt, static_cast<long>(r.particles), static_cast<long>(r.particles_end),
+                r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow, r.outflow, r.outflow_behind, r.guarded,
+                r.ledger_error, r.p_min, r.p_max, r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.u_max,
+                r.u_max_window, r.steps, r.wall_seconds);
+    // Particles split entering the narrow section: the fine size is reached and the coarse one kept upstream.
+    CHECK(r.L_min == doctest::Approx(Lf).epsilon(1e-12));
+    CHECK(r.L_max == doctest::Approx(Lc).epsilon(1e-12));
+    CHECK(r.splits > 1000);  // measured 2919
+    // The issue's 2 % of Q_in; measured 1.1 % (single resolution 1.2 %).
+    CHECK(r.balance <= 0.02);
+    CHECK(r.q_in > 1e-3);
+    CHECK(r.inflow > 300);
+    CHECK(r.outflow + r.outflow_behind > 300);
+    // Volume: V(t) − V(0) = V_in − V_out through every split and boundary event (splits halve exactly).
+    CHECK(r.ledger_error <= 1e-12);
+    CHECK(r.guarded == 0);
+    // Not an explosion once established: over the window |u| below twice the Bernoulli speed of the whole drop
+    // (0.45 m/s). The start-up is not quiet: the first splits at the convex corner (60, −5) mm gave p in
+    // [−15, +47] kPa and |u| 1.17 m/s at t ≈ 8 ms (measured; reported, not bounded: docs/resolution.md).
+    CHECK(r.u_max_window <= 1.0);
   }
 }
 

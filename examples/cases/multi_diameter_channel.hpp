@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "mpskit/boundary/pressure.hpp"
@@ -27,6 +28,9 @@ struct multi_diameter_config {
   double t_end = 0.3;       ///< run end (s)
   double window = 0.1;      ///< the balance is averaged over the last `window` seconds
   scheme::lsmps_params<2> params{};
+  /// Boundary-particle spacing along the faces (empty: L). A multi-resolution scene (params.resolution's
+  /// target diameter) sets it to the target there, so inflow creates particles of the local target size.
+  std::function<double(const vec<2>&)> boundary_spacing;
   /// The pressure boundary's numbers: Table 1 except α_o = 0.5 (ours; docs/channel.md), with the default
   /// face-distance outflow rule: with α_o = 0.25 the L = 1 mm run failed at t = 0.30 s (pressure spikes beside
   /// the outlet and the convex taper corners).
@@ -42,9 +46,14 @@ struct multi_diameter_result {
   double q_in = 0.0, q_out = 0.0, dvdt = 0.0;  ///< window means (m²/s)
   long steps = 0, inflow = 0, outflow = 0, outflow_behind = 0, guarded = 0;
   double ledger_error = 0.0, wall_seconds = 0.0;
-  index_t particles = 0;
+  index_t particles = 0, particles_end = 0;  ///< fluid particles at the start and the end
+  long splits = 0, merges = 0;                ///< resolution events (scenes with split_merge)
+  double L_min = 0.0, L_max = 0.0;            ///< smallest and largest fluid diameter at the end (m)
   double p_min = 0.0, p_max = 0.0;  ///< extreme fluid pressures over the run (Pa)
+  vec<2> p_min_at = vec<2>::Zero(), p_max_at = vec<2>::Zero();  ///< where they were (m)
+  double p_min_t = 0.0, p_max_t = 0.0;                          ///< and when (s)
   double u_max = 0.0;               ///< max |u| over the run (m/s)
+  double u_max_window = 0.0;        ///< max |u| over the averaging window (m/s)
 };
 
 /// The walls (y = ±wide/2 → ±narrow/2 over the taper, extended 4 L beyond both faces) and the faces.
@@ -88,7 +97,9 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   fm.elements.resize(2, 2);
   fm.elements.col(0) << 0, 1;
   fm.elements.col(1) << 2, 3;
-  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, L, c.boundary);
+  const auto spacing = [&](const vec<2>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
+  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, spacing,
+                                          c.boundary);
   std::vector<vec<2>> pts;
   for (int i = 0; (i + 0.5) * L < ell; ++i)
     for (int j = -static_cast<int>(std::ceil(a / L)); (j + 0.5) * L < a; ++j) {
@@ -124,8 +135,16 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
     const auto& st = sim.state();
     const auto& P = st.template get<field::pressure>();
     for (index_t i = 0; i < st.n_real(); ++i) {
-      r.p_min = std::min(r.p_min, P[i]);
-      r.p_max = std::max(r.p_max, P[i]);
+      if (P[i] < r.p_min) {
+        r.p_min = P[i];
+        r.p_min_at = st.x().col(i);
+        r.p_min_t = sim.time();
+      }
+      if (P[i] > r.p_max) {
+        r.p_max = P[i];
+        r.p_max_at = st.x().col(i);
+        r.p_max_t = sim.time();
+      }
       r.u_max = std::max(r.u_max, st.u().col(i).norm());
     }
   };
@@ -134,6 +153,8 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   t_begin = sim.time();
   sim.run_until(c.t_end, [&](const auto& sm) {
     extremes(sm);
+    const auto& st = sim.state();
+    for (index_t i = 0; i < st.n_real(); ++i) r.u_max_window = std::max(r.u_max_window, st.u().col(i).norm());
     qin += flux(3.0 * L);
     qout += flux(ell - 3.0 * L);
     ++samples;
@@ -149,7 +170,14 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   r.outflow = k.outflow;
   r.outflow_behind = k.outflow_behind;
   r.guarded = k.guarded;
+  r.splits = k.splits;
+  r.merges = k.merges;
   r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
+  const auto& st = sim.state();
+  r.particles_end = st.n_real();
+  const auto& Vend = st.template get<field::volume>();
+  r.L_min = std::sqrt(Vend.head(st.n_real()).minCoeff());
+  r.L_max = std::sqrt(Vend.head(st.n_real()).maxCoeff());
   return r;
 }
 
