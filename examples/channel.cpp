@@ -2,11 +2,12 @@
 // driven by the body force G/ρ, and the same channel driven by pressure inflow/outflow boundaries, against
 // the start-up series (validation-cases.md D1).
 // Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]   |   channel --duct [t_end] [L]
-//        |   channel --multi [L] [t_end]
+//        |   channel --multi [L] [t_end] [--refine R]
 //   --duct:  the 3D square duct (W = 4 mm, 8 mm long, L = 0.5 mm) through pressure faces, and periodic with G/rho,
 //            against the start-up series: channel --duct [t_end] [L]
 //   --multi: the multi-diameter channel (30 mm -> 10 mm, 100 Pa -> 0 Pa, mu = 0.001 Pa s); default L = 1 mm to
-//            0.3 s (the CI case); the paper's is L = 0.25 mm to 1 s
+//            0.3 s (the CI case); the paper's is L = 0.25 mm to 1 s. --refine R: start from L and split to L/R
+//            entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 -> 0.25 mm, R = 3)
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s (Tanaka's single resolution
@@ -17,8 +18,15 @@
 
 #include "cases/duct.hpp"
 #include "cases/multi_diameter_channel.hpp"
+#include "mpskit/resolution/split_merge.hpp"
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
+
+namespace {
+struct multi_diameter_multires_scene : mpskit::cases::multi_diameter_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+}  // namespace
 
 int main(int argc, char** argv) {
   mpskit::cases::poiseuille_config c;
@@ -53,15 +61,30 @@ int main(int argc, char** argv) {
   }
   if (argc > 1 && !std::strcmp(argv[1], "--multi")) {
     mpskit::cases::multi_diameter_config mc;
-    if (argc > 2) mc.L = std::atof(argv[2]);
-    if (argc > 3) mc.t_end = std::atof(argv[3]);
-    const auto r = mpskit::cases::run_multi_diameter(mc);
-    std::printf("multi-diameter channel, L = %.3f mm (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
-                mc.L * 1e3, static_cast<long long>(r.particles), r.steps, r.wall_seconds, mc.t_end);
+    double ratio = 0.0;  // --refine R: split 1:R entering the narrow section (issue #9's case)
+    int positional = 0;
+    for (int a = 2; a < argc; ++a) {
+      if (!std::strcmp(argv[a], "--refine") && a + 1 < argc) ratio = std::atof(argv[++a]);
+      else if (positional++ == 0) mc.L = std::atof(argv[a]);
+      else mc.t_end = std::atof(argv[a]);
+    }
+    if (ratio != 0.0 && !(ratio >= 1.0)) {
+      std::fprintf(stderr, "channel --multi: --refine takes a diameter ratio >= 1 (got %g)\n", ratio);
+      return 2;
+    }
+    if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
+    const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<multi_diameter_multires_scene>(mc)
+                                : mpskit::cases::run_multi_diameter(mc);
+    std::printf("multi-diameter channel, L = %.3f mm%s (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
+                mc.L * 1e3, ratio >= 1.0 ? ", split to L/ratio in the narrow section" : "",
+                static_cast<long long>(r.particles), r.steps, r.wall_seconds, mc.t_end);
     std::printf("  volume balance over the last %.2f s: |Q_in - Q_out - dV/dt| / Q_in = %.4f (Q_in %.3e m^2/s)\n",
                 mc.window, r.balance, r.q_in);
-    std::printf("  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s, guarded %ld\n",
-                r.inflow, r.outflow, r.outflow_behind, r.p_min, r.p_max, r.u_max, r.guarded);
+    std::printf("  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s (last %.2f s: "
+                "%.3f), guarded %ld\n",
+                r.inflow, r.outflow, r.outflow_behind, r.p_min, r.p_max, r.u_max, mc.window, r.u_max_window, r.guarded);
+    std::printf("  particles %lld at the end, diameters [%.3f, %.3f] mm, splits %ld, merges %ld\n",
+                static_cast<long long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges);
     return 0;
   }
   for (int a = 1; a < argc; ++a) {

@@ -551,12 +551,7 @@ TEST_SUITE("multi_diameter_channel_multires") {
     // coarse particles. Same balance as the single-resolution label, over the last 0.1 s of 0.3 s.
     cases::multi_diameter_config c;
     const double Lc = c.L, Lf = 0.5 * c.L;
-    const auto target = [=](const vec<2>& x) {
-      const double d = (x - vec<2>(0.09, 0.0)).norm();
-      return Lf + std::clamp((d - 0.03) / 0.03, 0.0, 1.0) * (1.05 * Lc - Lf);
-    };
-    c.params.resolution.target_diameter = target;
-    c.boundary_spacing = [=](const vec<2>& x) { return std::min(Lc, target(x)); };
+    cases::refine_narrow_section(c, Lf);
     const auto r = cases::run_multi_diameter<multi_diameter_multires_scene>(c);
     std::printf("multi-diameter channel multires: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), particles %ld -> "
                 "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld behind %ld, guarded %ld, ledger %.1e, p in "

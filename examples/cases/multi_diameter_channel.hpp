@@ -56,6 +56,21 @@ struct multi_diameter_result {
   double u_max_window = 0.0;        ///< max |u| over the averaging window (m/s)
 };
 
+/// Refines c for a multi-resolution scene (params.resolution, boundary spacing): the target diameter (ours: the
+/// paper's Fig. 12b is not in the text, only that L* depends on the distance d from the outlet's midpoint) is
+/// L_fine for d ≤ one section length (the narrow section), a linear ramp to 1.05 L at two section lengths, so
+/// the particles of the L lattice split entering the narrow section; the faces carry the target spacing (≤ L).
+inline void refine_narrow_section(multi_diameter_config& c, double L_fine) {
+  const double Lc = c.L, s = c.section;
+  const vec<2> outlet(3.0 * s, 0.0);
+  const auto target = [=](const vec<2>& x) {
+    const double d = (x - outlet).norm();
+    return L_fine + std::clamp((d - s) / s, 0.0, 1.0) * (1.05 * Lc - L_fine);
+  };
+  c.params.resolution.target_diameter = target;
+  c.boundary_spacing = [=](const vec<2>& x) { return std::min(Lc, target(x)); };
+}
+
 /// The walls (y = ±wide/2 → ±narrow/2 over the taper, extended 4 L beyond both faces) and the faces.
 inline geometry::polygon_mesh<2> multi_diameter_walls(const multi_diameter_config& c) {
   const double a = 0.5 * c.wide, b = 0.5 * c.narrow, s = c.section, e = 4.0 * c.L;
