@@ -81,6 +81,41 @@ TEST_SUITE("hydrostatic") {
     CHECK(r3.max_speed < 0.17);
   }
 
+  TEST_CASE("hydrostatic: the quiet configuration meets issue #4's residual speeds, 2D (H/40) and 3D") {
+    // quiet_defaults<D> (mixed source, Tanaka eq. 25) with quiet_params (corrected gradient bmmr.md eq. 29 with
+    // p̂ = p_i, one-sided-band velocity filter ε = 0.1; docs/solver.md "Quiet configuration"). Why the defaults
+    // are noisy: the linearised step (positions and velocities) of a 10 × 10 tank has |λ| = 1.028, an odd-even
+    // shear of the rows below the surface that neither the number density nor the divergence sees, grown by the
+    // eq. 22 gradient at ≈ 0.56 √(g/l0) per second; all three changes are needed (each alone: 1e-2 to 5e-2).
+    // Issue #4: bins within 2 % of ρgH below the top two layers, RMS ≤ 1e-3 and max ≤ 1e-2 √(gH) over
+    // [20, 40] √(H/g). Measured 2D H/40: bins 2e-5, RMS 4.7e-4, max 3.0e-3; 3D H/10: bins 4e-4, RMS 3.6e-4,
+    // max 2.2e-3 (defaults: 0.0168, 0.033, 0.104 and 0.0411, 0.046, 0.124).
+    cases::hydrostatic_config<2> c2;
+    c2.l0 = c2.depth / 40;
+    c2.params = scheme::quiet_params<2>();
+    c2.params.time.dt_max = 1e-3;
+    const auto r2 = cases::run_hydrostatic<quiet_defaults<2>>(c2);
+    cases::hydrostatic_config<3> c3;
+    c3.depth = 0.05;
+    c3.width = 0.03;
+    c3.l0 = c3.depth / 10;
+    c3.params = scheme::quiet_params<3>();
+    c3.params.time.dt_max = 1e-3;
+    const auto r3 = cases::run_hydrostatic<quiet_defaults<3>>(c3);
+    for (const auto* r : {&r2, &r3}) {
+      MESSAGE("quiet: max bin error " << r->max_bin_error << " rho g H; RMS " << r->rms_speed << ", max "
+                                      << r->max_speed << " sqrt(gH); loads bottom " << r->bottom_force_ratio
+                                      << ", side " << r->side_force_ratio << "; " << r->steps << " steps, "
+                                      << r->wall_seconds << " s");
+      CHECK(r->max_bin_error < 0.02);
+      CHECK(r->rms_speed <= 1e-3);
+      CHECK(r->max_speed <= 1e-2);
+      CHECK(r->min_fluid_height > 0.0);
+      CHECK(r->max_fluid_offset <= 0.0);
+      CHECK(r->fluid_end == r->fluid);
+    }
+  }
+
   TEST_CASE("hydrostatic: 3D tank at CI size") {
     cases::hydrostatic_config<3> cfg;
     cfg.depth = 0.05;
@@ -104,22 +139,28 @@ TEST_SUITE("hydrostatic") {
 TEST_SUITE("dam_break") {
   TEST_CASE("dam_break: surge front inside the Martin & Moyce / Koshizuka & Oka band for T <= 3") {
     const auto data = front_data();
-    cases::dam_break_config cfg;  // a = 0.146 m, l0 = a/20
-    const auto r = cases::run_dam_break<defaults<2>>(cfg);
-    MESSAGE("dam break: " << r.steps << " steps, " << r.wall_seconds << " s, "
-                          << double(r.particles) * double(r.steps) / r.wall_seconds << " particle-steps/s");
-    int outside = 0;
-    for (std::size_t k = 0; k < r.T.size(); ++k) {
-      const auto [lo, hi] = cases::front_band(data, r.T[k]);  // [0.9 min, 1.1 max] of the data at T
-      CAPTURE(r.T[k]);
-      CAPTURE(r.Z[k]);
-      if (std::isnan(lo)) continue;
-      outside += r.Z[k] < lo || r.Z[k] > hi;
+    // The defaults, and the quiet configuration of the hydrostatic test (measured: defaults 0 of 61 samples
+    // outside the band, mean +4.2 % from its centre, largest 10.1 %; quiet 0 of 61, +2.4 %, 8.6 %).
+    for (const bool quiet : {false, true}) {
+      CAPTURE(quiet);
+      cases::dam_break_config cfg;  // a = 0.146 m, l0 = a/20
+      if (quiet) cfg.params = scheme::quiet_params<2>();
+      const auto r = quiet ? cases::run_dam_break<quiet_defaults<2>>(cfg) : cases::run_dam_break<defaults<2>>(cfg);
+      MESSAGE("dam break: " << r.steps << " steps, " << r.wall_seconds << " s, "
+                            << double(r.particles) * double(r.steps) / r.wall_seconds << " particle-steps/s");
+      int outside = 0;
+      for (std::size_t k = 0; k < r.T.size(); ++k) {
+        const auto [lo, hi] = cases::front_band(data, r.T[k]);  // [0.9 min, 1.1 max] of the data at T
+        CAPTURE(r.T[k]);
+        CAPTURE(r.Z[k]);
+        if (std::isnan(lo)) continue;
+        outside += r.Z[k] < lo || r.Z[k] > hi;
+      }
+      CHECK(r.T.back() >= 3.0 - 1e-9);
+      CHECK(outside == 0);
+      CHECK(r.inside_tank);
+      CHECK(r.fluid_end == r.fluid);  // particle count conserved
     }
-    CHECK(r.T.back() >= 3.0 - 1e-9);
-    CHECK(outside == 0);
-    CHECK(r.inside_tank);
-    CHECK(r.fluid_end == r.fluid);  // particle count conserved
   }
 }
 
@@ -242,18 +283,22 @@ TEST_SUITE("bad_input") {
 TEST_SUITE("solver_threads") {
   TEST_CASE("solver: results are bitwise identical for 1 and 2 threads") {
 #ifdef _OPENMP
-    auto run = [](int threads) {
+    // The defaults and the quiet configuration (its band filter reads every velocity before writing any).
+    auto run = []<class Scene>(int threads, Scene, bool quiet) {
       omp_set_num_threads(threads);
       cases::dam_break_config cfg;
-      auto p = cfg.params;
+      auto p = quiet ? scheme::quiet_params<2>(cfg.params) : cfg.params;
       p.l0 = cfg.l0;
-      simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
+      simulation<Scene> sim(p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
       for (int k = 0; k < 150; ++k) sim.step();
-      return std::make_pair(points<2>(sim.state().x()), Eigen::VectorXd(sim.state().get<field::pressure>()));
+      return std::make_pair(points<2>(sim.state().x()), Eigen::VectorXd(sim.state().template get<field::pressure>()));
     };
-    const auto a = run(1), b = run(2);
+    const auto a = run(1, defaults<2>{}, false), b = run(2, defaults<2>{}, false);
     CHECK((a.first.array() == b.first.array()).all());
     CHECK((a.second.array() == b.second.array()).all());
+    const auto qa = run(1, quiet_defaults<2>{}, true), qb = run(2, quiet_defaults<2>{}, true);
+    CHECK((qa.first.array() == qb.first.array()).all());
+    CHECK((qa.second.array() == qb.second.array()).all());
 #else
     MESSAGE("built without OpenMP: nothing to compare");
 #endif

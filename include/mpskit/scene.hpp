@@ -44,6 +44,15 @@ struct defaults {
   using stepper = mpskit::scheme::semi_implicit<Scene>;
 };
 
+/// The classic scheme's quiet configuration (docs/solver.md, issue #4): defaults<D> with the mixed PPE
+/// source (Tanaka eq. 25, α_p = 0.01); run it with scheme::quiet_params<D>() (corrected pressure gradient,
+/// one-sided-band velocity filter ε = 0.1, a deviation). Not the default: ε acts per step and wall loads
+/// are read from the plain pair form (docs/solver.md).
+template <int D>
+struct quiet_defaults : defaults<D> {
+  using source = mpskit::ppe::mixed;  ///< PPE source (Tanaka eq. 25)
+};
+
 /// Tanaka, Cardoso & Bahai 2018's single-resolution LSMPS scheme (scheme/lsmps_semi_implicit.hpp): LSMPS
 /// type A of order 2, det F source, BiCGSTAB with Jacobi (the PPE is not symmetric), geometric surface detection,
 /// polygon walls with imaginary particles, Tanaka's shifting.

@@ -23,6 +23,8 @@
 ///  8. Negative pressures clamped to 0 or kept (params); pressure gradient at x′ with the minimum
 ///     neighbour pressure (eq. 22) or plain (eq. 21); u = u′ − Δt/ρ ∇p (eq. 15);
 ///     x = x′ + Δt (u − u′) (eq. 16 / bmmr eq. 28).
+///  8b. Velocity filter in the one-sided band if params.boundary_filter.strength > 0 (a deviation, off by
+///     default; regularize/boundary_filter.hpp).
 ///  9. Shifting if the scene names one; NaN/inf check naming step, time and particle.
 #include <algorithm>
 #include <cmath>
@@ -44,6 +46,7 @@
 #include "mpskit/ppe/eigen_iterative.hpp"
 #include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/ppe/solve.hpp"
+#include "mpskit/regularize/boundary_filter.hpp"
 #include "mpskit/scheme/time_step.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 
@@ -76,6 +79,12 @@ struct semi_implicit_params {
   ppe::solver_params solver{};         ///< linear solver stopping rule
   double skin = 0.2;                   ///< list skin (fraction of the build radius)
   int reorder_every = 25;              ///< steps between cell reorders (0: never)
+  /// ε of the velocity filter in the one-sided band (a deviation, regularize/boundary_filter.hpp): fluid
+  /// particles with a free-surface fluid particle or a wall particle within re_large get
+  /// u_i += ε (û_i − u_i), û_i the LSMPS-B order-2 fit over their neighbours j ≠ i (fluid, wall, dummy;
+  /// walls at rest), after the correction. 0 (default) switches it off. With the mixed source and the
+  /// corrected gradient, ε = 0.1 keeps the hydrostatic tank at rest (docs/solver.md, issue #4).
+  regularize::boundary_filter_params boundary_filter{0.0};
 
   static vec<D> gravity() {
     vec<D> v = vec<D>::Zero();
@@ -94,8 +103,20 @@ struct semi_implicit_params {
     v.throw_if_any();
     time.validate();
     solver.validate();
+    boundary_filter.validate();
   }
 };
+
+/// The numbers of the quiet classic configuration (docs/solver.md "Quiet configuration", issue #4): p with the
+/// corrected pressure gradient (bmmr.md eq. 29, p̂ = p_i) and the one-sided-band velocity filter at ε = 0.1.
+/// Use it with a scene whose source is ppe::mixed (Tanaka eq. 25, α_p = 0.01): mpskit::quiet_defaults<D>.
+/// Measured: a tank at rest keeps RMS ≤ 5e-4, max ≤ 3e-3 √(gH) (defaults: 3–5e-2, 0.1).
+template <int D>
+semi_implicit_params<D> quiet_params(semi_implicit_params<D> p = {}) {
+  p.gradient = pressure_gradient::corrected;
+  p.boundary_filter.strength = 0.1;
+  return p;
+}
 
 /// Counters of a run (reported in summaries, kept in checkpoints).
 struct semi_implicit_counters {
@@ -283,6 +304,8 @@ class semi_implicit {
       s_.x().col(i) = xt_.col(i) + dt * (unew - ut_.col(i));
       u.col(i) = unew;
     });
+    // 8b. Velocity filter in the one-sided band (params.boundary_filter; off by default).
+    if (p_.boundary_filter.strength > 0.0) filter_band();
     // 9. Shifting (policy).
     if constexpr (!std::is_same_v<shifting_type, no_regularization>) {
       ensure_list(s_.x());
@@ -565,6 +588,36 @@ class semi_implicit {
     }
   }
 
+  /// 8b. The one-sided band (fluid particles with a surface fluid or a wall particle within re_large,
+  /// flags from this step's detection at x′, band found at x^{k+1}) filtered towards the LSMPS-B order-2
+  /// fit of its neighbours' velocities (radius re_large, pair-mean rule with L = l0 everywhere).
+  void filter_band() {
+    const index_t n = s_.n_real();
+    const auto& x = s_.x();
+    const auto& flags = s_.flags();
+    ensure_list(x);
+    band_.assign(static_cast<std::size_t>(n), 0);
+    for_each_particle(exec::par{}, n, [&](index_t i) {
+      if (kind_of(i) != kind::fluid || isolated_[static_cast<std::size_t>(i)]) return;
+      bool b = false;
+      nl_.for_each_neighbour(x, i, op_.large_support(), [&](index_t j, const vec<D>&, double) {
+        if (isolated_[static_cast<std::size_t>(j)]) return;
+        if (kind_of(j) == kind::wall ||
+            (kind_of(j) == kind::fluid && (flags[static_cast<std::size_t>(j)] & flag::surface)))
+          b = true;
+      });
+      band_[static_cast<std::size_t>(i)] = b;
+    });
+    L_.setConstant(n, p_.l0);
+    const search::support<search::per_particle_radius> sup{{&L_, p_.re_large}, search::radius_rule::pair_mean};
+    op::lsmps_params op;
+    op.re_ratio = p_.re_large;
+    const auto participates = [&](index_t j) { return !isolated_[static_cast<std::size_t>(j)]; };
+    const auto selected = [&](index_t i) { return band_[static_cast<std::size_t>(i)] != 0; };
+    regularize::boundary_filter(exec::par{}, x, L_, nl_, sup, op, participates, selected, n, p_.boundary_filter,
+                                s_.u(), s_.u(), filter_du_);
+  }
+
   void check_finite() const {
     for (index_t i = 0; i < s_.n_real(); ++i)
       if (!s_.x().col(i).allFinite() || !s_.u().col(i).allFinite() ||
@@ -586,7 +639,9 @@ class semi_implicit {
   search::neighbour_list<D> nl_;
   points<D> x_built_, xt_, ut_, wall_force_;
   std::vector<double> pmin_;
-  std::vector<std::uint8_t> isolated_, candidate_, dirichlet_;
+  std::vector<std::uint8_t> isolated_, candidate_, dirichlet_, band_;
+  Eigen::VectorXd L_;
+  points<D> filter_du_;
   std::vector<index_t> unk_, rows_;
   matrix_type A_;
   Eigen::VectorXd b_;
