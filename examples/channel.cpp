@@ -18,15 +18,8 @@
 
 #include "cases/duct.hpp"
 #include "cases/multi_diameter_channel.hpp"
-#include "mpskit/resolution/split_merge.hpp"
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
-
-namespace {
-struct multi_diameter_multires_scene : mpskit::cases::multi_diameter_scene {
-  using resolution = mpskit::resolution::split_merge<>;
-};
-}  // namespace
 
 int main(int argc, char** argv) {
   mpskit::cases::poiseuille_config c;
@@ -63,17 +56,43 @@ int main(int argc, char** argv) {
     mpskit::cases::multi_diameter_config mc;
     double ratio = 0.0;  // --refine R: split 1:R entering the narrow section (issue #9's case)
     int positional = 0;
+    const auto number = [](const char* what, const char* s, double& v) {
+      char* end = nullptr;
+      v = std::strtod(s, &end);
+      if (end == s || *end != '\0' || !(v > 0.0)) {
+        std::fprintf(stderr, "channel --multi: %s must be a positive number (got '%s')\n", what, s);
+        return false;
+      }
+      return true;
+    };
     for (int a = 2; a < argc; ++a) {
-      if (!std::strcmp(argv[a], "--refine") && a + 1 < argc) ratio = std::atof(argv[++a]);
-      else if (positional++ == 0) mc.L = std::atof(argv[a]);
-      else mc.t_end = std::atof(argv[a]);
+      if (!std::strcmp(argv[a], "--refine")) {
+        if (a + 1 >= argc) {
+          std::fprintf(stderr, "channel --multi: --refine needs a diameter ratio R >= 1\n");
+          return 2;
+        }
+        if (!number("--refine", argv[++a], ratio)) return 2;
+        if (!(ratio >= 1.0)) {
+          std::fprintf(stderr, "channel --multi: --refine takes a diameter ratio >= 1 (got %g)\n", ratio);
+          return 2;
+        }
+      } else if (positional == 0) {
+        if (!number("L", argv[a], mc.L)) return 2;
+        ++positional;
+      } else if (positional == 1) {
+        if (!number("t_end", argv[a], mc.t_end)) return 2;
+        ++positional;
+      } else {
+        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R] (unexpected '%s')\n", argv[a]);
+        return 2;
+      }
     }
-    if (ratio != 0.0 && !(ratio >= 1.0)) {
-      std::fprintf(stderr, "channel --multi: --refine takes a diameter ratio >= 1 (got %g)\n", ratio);
+    if (!(mc.t_end > mc.window)) {
+      std::fprintf(stderr, "channel --multi: t_end must exceed the %g s balance window (got %g)\n", mc.window, mc.t_end);
       return 2;
     }
     if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
-    const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<multi_diameter_multires_scene>(mc)
+    const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<mpskit::cases::multi_diameter_multires_scene>(mc)
                                 : mpskit::cases::run_multi_diameter(mc);
     std::printf("multi-diameter channel, L = %.3f mm%s (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
                 mc.L * 1e3, ratio >= 1.0 ? ", split to L/ratio in the narrow section" : "",
@@ -83,6 +102,8 @@ int main(int argc, char** argv) {
     std::printf("  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s (last %.2f s: "
                 "%.3f), guarded %ld\n",
                 r.inflow, r.outflow, r.outflow_behind, r.p_min, r.p_max, r.u_max, mc.window, r.u_max_window, r.guarded);
+    std::printf("  lowest pressure at (%.1f, %.1f) mm, t = %.4f s; highest at (%.1f, %.1f) mm, t = %.4f s\n",
+                r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.p_max_at[0] * 1e3, r.p_max_at[1] * 1e3, r.p_max_t);
     std::printf("  particles %lld at the end, diameters [%.3f, %.3f] mm, splits %ld, merges %ld\n",
                 static_cast<long long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges);
     return 0;

@@ -541,12 +541,6 @@ TEST_SUITE("multi_diameter_channel") {
   }
 }
 
-namespace {
-struct multi_diameter_multires_scene : cases::multi_diameter_scene {
-  using resolution = mpskit::resolution::split_merge<>;
-};
-}  // namespace
-
 TEST_SUITE("multi_diameter_channel_multires") {
   TEST_CASE("channel: multi-diameter channel with splitting into the narrow section, 2:1 (Tanaka 2018 §5.3, A3)") {
     // Issue #9: the channel of the multi_diameter_channel label started at L = 1 mm everywhere; the target diameter
@@ -558,13 +552,14 @@ TEST_SUITE("multi_diameter_channel_multires") {
     cases::multi_diameter_config c;
     const double Lc = c.L, Lf = 0.5 * c.L;
     cases::refine_narrow_section(c, Lf);
-    const auto r = cases::run_multi_diameter<multi_diameter_multires_scene>(c);
+    const auto r = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(c);
     std::printf("multi-diameter channel multires: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), particles %ld -> "
                 "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld behind %ld, guarded %ld, ledger %.1e, p in "
-                "[%.0f, %.0f] Pa (min at (%.1f, %.1f) mm, t = %.4f s), |u|max %.3f m/s (last 0.1 s: %.3f), %ld steps, %.1f s\n",
+                "[%.0f, %.0f] Pa (min at (%.1f, %.1f) mm, t = %.4f s; max at (%.1f, %.1f) mm, t = %.4f s), |u|max %.3f m/s (last 0.1 s: %.3f), %ld steps, %.1f s\n",
                 r.balance, r.q_in, r.q_out, r.dvdt, static_cast<long>(r.particles), static_cast<long>(r.particles_end),
                 r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow, r.outflow, r.outflow_behind, r.guarded,
-                r.ledger_error, r.p_min, r.p_max, r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.u_max,
+                r.ledger_error, r.p_min, r.p_max, r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.p_max_at[0] * 1e3,
+                r.p_max_at[1] * 1e3, r.p_max_t, r.u_max,
                 r.u_max_window, r.steps, r.wall_seconds);
     // Particles split entering the narrow section: the fine size is reached and the coarse one kept upstream.
     CHECK(r.L_min == doctest::Approx(Lf).epsilon(1e-12));

@@ -47,12 +47,13 @@ TEST_SUITE("hydrostatic") {
     CHECK(r.fluid_end == r.fluid);     // particle count conserved
   }
 
-  TEST_CASE("hydrostatic: the corrected pressure gradient (bmmr.md eq. 29) removes the surface offset, 2D and 3D") {
+  TEST_CASE("hydrostatic: the corrected pressure gradient (bmmr.md eq. 29) removes the surface offset, 2D") {
     // The d/n0 gradient of a half stencil at the free surface is about half the hydrostatic one; the
     // correction matrix makes it exact for linear fields (Wang et al. 2017), so the +0.4 l0 ρg offset of the
     // default goes. Measured (max bin error / ρgH, RMS / max speed / √(gH)): 2D H/20 0.0033, 0.018 / 0.074
-    // (default gradient: 0.024, 0.042 / 0.126); 3D H/10, W = 0.03 m 0.0102, 0.034 / 0.098 (default 0.041);
-    // a rounding-level change of the inversion moved them from 0.0037 / 0.0112 (docs/solver.md).
+    // (default gradient: 0.024, 0.042 / 0.126); 3D H/10, W = 0.03 m 0.0102, 0.034 / 0.098 (default 0.041; not
+    // rerun here to keep the label within the issue's 5 min: the quiet configuration's test runs that 3D tank
+    // with the corrected gradient); a rounding-level change of the inversion moved them from 0.0037 / 0.0112.
     // Bounds: the issue's 2 % per bin; speeds with ~50 % margin (the residual noise is not removed).
     // Wall loads are not asserted: they come from the antisymmetric plain pair form, which does not match a
     // corrected gradient (measured bottom 0.96 / side 0.91 in 2D, docs/solver.md).
@@ -60,13 +61,7 @@ TEST_SUITE("hydrostatic") {
     c2.l0 = c2.depth / 20;
     c2.params.gradient = scheme::pressure_gradient::corrected_minimum;
     const auto r2 = cases::run_hydrostatic<defaults<2>>(c2);
-    cases::hydrostatic_config<3> c3;
-    c3.depth = 0.05;
-    c3.width = 0.03;
-    c3.l0 = c3.depth / 10;
-    c3.params.gradient = scheme::pressure_gradient::corrected_minimum;
-    const auto r3 = cases::run_hydrostatic<defaults<3>>(c3);
-    for (const auto* r : {&r2, &r3}) {
+    for (const auto* r : {&r2}) {
       MESSAGE("corrected gradient: max bin error " << r->max_bin_error << " rho g H; RMS " << r->rms_speed << ", max "
                                                    << r->max_speed << " sqrt(gH); " << r->steps << " steps");
       CHECK(r->max_bin_error < 0.02);
@@ -77,8 +72,6 @@ TEST_SUITE("hydrostatic") {
     CHECK(r2.max_bin_error < 0.01);  // measured 0.0033–0.0037: the offset of the default (0.024) is gone
     CHECK(r2.rms_speed < 0.03);
     CHECK(r2.max_speed < 0.15);
-    CHECK(r3.rms_speed < 0.05);
-    CHECK(r3.max_speed < 0.17);
   }
 
   TEST_CASE("hydrostatic: the quiet configuration meets issue #4's residual speeds, 2D (H/40) and 3D") {
@@ -87,8 +80,8 @@ TEST_SUITE("hydrostatic") {
     // are noisy: the linearised step (positions and velocities) of a 10 × 10 tank has |λ| = 1.028, an odd-even
     // shear of the rows below the surface that neither the number density nor the divergence sees, grown by the
     // eq. 22 gradient at ≈ 0.56 √(g/l0) per second; all three changes are needed (each alone: 1e-2 to 5e-2).
-    // Issue #4: bins within 2 % of ρgH below the top two layers, RMS ≤ 1e-3 and max ≤ 1e-2 √(gH) over
-    // [20, 40] √(H/g). Measured 2D H/40: bins 2e-5, RMS 4.7e-4, max 3.0e-3; 3D H/10: bins 4e-4, RMS 3.6e-4,
+    // Issue #4: bins (pressure averaged over [20, 40] √(H/g)) within 2 % of ρgH below the top two layers, RMS
+    // ≤ 1e-3 and max ≤ 1e-2 √(gH) (speeds at t = 40 √(H/g)). Measured 2D H/40: bins 2e-5, RMS 4.7e-4, max 3.0e-3; 3D H/10: bins 4e-4, RMS 3.6e-4,
     // max 2.2e-3 (defaults: 0.0168, 0.033, 0.104 and 0.0411, 0.046, 0.124).
     cases::hydrostatic_config<2> c2;
     c2.l0 = c2.depth / 40;
@@ -139,8 +132,8 @@ TEST_SUITE("hydrostatic") {
 TEST_SUITE("dam_break") {
   TEST_CASE("dam_break: surge front inside the Martin & Moyce / Koshizuka & Oka band for T <= 3") {
     const auto data = front_data();
-    // The defaults, and the quiet configuration of the hydrostatic test (measured: defaults 0 of 61 samples
-    // outside the band, mean +4.2 % from its centre, largest 10.1 %; quiet 0 of 61, +2.4 %, 8.6 %).
+    // The defaults, and the quiet configuration of the hydrostatic test (measured in one harness: defaults 0 of
+    // 61 samples outside the band, mean +4.2 % from its centre, largest 10.1 %; quiet 0 of 61, +2.4 %, 8.6 %).
     for (const bool quiet : {false, true}) {
       CAPTURE(quiet);
       cases::dam_break_config cfg;  // a = 0.146 m, l0 = a/20
@@ -283,14 +276,18 @@ TEST_SUITE("bad_input") {
 TEST_SUITE("solver_threads") {
   TEST_CASE("solver: results are bitwise identical for 1 and 2 threads") {
 #ifdef _OPENMP
-    // The defaults and the quiet configuration (its band filter reads every velocity before writing any).
+    // The defaults and the quiet configuration (its band filter reads every velocity before writing any), at
+    // l0 = a/40: loops shorter than exec::parallel_min_items run sequentially, so the case must be larger
+    // (the a/20 case, 1358 particles, compared two sequential runs).
     auto run = []<class Scene>(int threads, Scene, bool quiet) {
       omp_set_num_threads(threads);
       cases::dam_break_config cfg;
+      cfg.l0 = cfg.a / 40;
       auto p = quiet ? scheme::quiet_params<2>(cfg.params) : cfg.params;
       p.l0 = cfg.l0;
       simulation<Scene> sim(p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
-      for (int k = 0; k < 150; ++k) sim.step();
+      REQUIRE(sim.state().n_real() >= parallel_min_items);
+      for (int k = 0; k < 60; ++k) sim.step();
       return std::make_pair(points<2>(sim.state().x()), Eigen::VectorXd(sim.state().template get<field::pressure>()));
     };
     const auto a = run(1, defaults<2>{}, false), b = run(2, defaults<2>{}, false);

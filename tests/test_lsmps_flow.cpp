@@ -427,7 +427,7 @@ TEST_SUITE("dam_break_lsmps") {
     // copy_two_point = 1 and shift.projection = wall_only (opt-in, docs/lsmps_scheme.md): the front stays in
     // the band at all 61 samples to T = 3 and the run reaches the far wall. Unmet, hence not the defaults:
     // the fluid pressure dips far below −ρgH (measured −1.0e5 Pa at the far-wall impact, −1 to −6 kPa before
-    // it; −4.8e5 Pa before c′ = 1 beside walls); at L = 5 mm the run fails at T ≈ 2.6, at
+    // it; −4.8e5 Pa before c′ = 1 beside walls); before that change, at L = 5 mm the run failed at T ≈ 2.6, at
     // L = 3 mm at T ≈ 1.75; as defaults they cost elsewhere (Poiseuille 3.0 → 3.6 %, tanks at rest spread
     // with wall_only: docs/lsmps_scheme.md).
     const auto r = run_tanaka_dam_break(3.0, 1.0, regularize::penalty_projection::wall_only);

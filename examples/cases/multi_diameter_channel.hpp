@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mpskit/boundary/pressure.hpp"
+#include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
 
 namespace mpskit::cases {
@@ -56,6 +57,11 @@ struct multi_diameter_result {
   double u_max_window = 0.0;        ///< max |u| over the averaging window (m/s)
 };
 
+/// The case's scene with splitting and merging (Scene::resolution; run it with refine_narrow_section).
+struct multi_diameter_multires_scene : multi_diameter_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+
 /// Refines c for a multi-resolution scene (params.resolution, boundary spacing): the target diameter (ours: the
 /// paper's Fig. 12b is not in the text, only that L* depends on the distance d from the outlet's midpoint) is
 /// L_fine for d ≤ one section length (the narrow section), a linear ramp to 1.05 L at two section lengths, so
@@ -96,6 +102,9 @@ inline geometry::polygon_mesh<2> multi_diameter_walls(const multi_diameter_confi
 
 template <class Scene = multi_diameter_scene>
 multi_diameter_result run_multi_diameter(multi_diameter_config c) {
+  if (!(c.L > 0.0) || !(c.window > 0.0) || !(c.t_end > c.window))
+    fail("run_multi_diameter: need L > 0 and t_end > window > 0 (the balance is averaged over the last `window` ",
+         "seconds); got L = ", c.L, ", t_end = ", c.t_end, ", window = ", c.window);
   const double a = 0.5 * c.wide, b = 0.5 * c.narrow, s = c.section, ell = 3 * s, L = c.L;
   auto p = c.params;
   p.rho = c.rho;

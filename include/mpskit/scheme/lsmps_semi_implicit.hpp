@@ -782,7 +782,8 @@ class lsmps_semi_implicit {
         const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
         bool near = false, band = surface_[static_cast<std::size_t>(i)] != 0;
         nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
-          const bool open = j >= n || surface_[static_cast<std::size_t>(j)];  // copy, boundary particle, surface
+          // a copy (of a participating parent), a pressure-boundary particle, a surface particle
+          const bool open = (j >= n && participates(j)) || (j < n && surface_[static_cast<std::size_t>(j)]);
           if (open && r2 < reach * reach) near = true;
           band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0;
         });
