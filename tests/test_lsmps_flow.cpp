@@ -246,6 +246,10 @@ TEST_SUITE("bad_input") {
     p.volume.c_prime_min = 1.5;
     CHECK_THROWS_WITH_AS(simulation<lsmps_defaults<2>>(p, s0, &tank.walls),
                          doctest::Contains("c_prime_min"), mpskit::error);
+    p.volume = {};
+    p.boundary_filter.size_ratio = 0.9;  // a factor between diameters: ≥ 1
+    CHECK_THROWS_WITH_AS(simulation<lsmps_defaults<2>>(p, s0, &tank.walls),
+                         doctest::Contains("size_ratio"), mpskit::error);
   }
 }
 

@@ -36,10 +36,16 @@ namespace mpskit::regularize {
 /// Numbers of the boundary-band velocity filter.
 struct boundary_filter_params {
   double strength = 0.05;  ///< ε per step, accepted [0, 1]; 0 switches the filter off
+  /// A particle with a neighbour whose diameter differs from its own by more than this factor is in the band
+  /// too (LSMPS scheme; multi-resolution): a mixed-size stencil is not symmetric either, and the same mode
+  /// grows there (measured: a tank at rest with a refined disc, docs/resolution.md). Accepted [1, inf];
+  /// inf leaves mixed-size stencils out. Uniform sizes never trigger it (single resolution is unchanged).
+  double size_ratio = 1.05;
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("boundary_filter_params");
     v.in_range("strength", strength, 0.0, 1.0);
+    v.require(size_ratio >= 1.0, "size_ratio", mpskit::detail::concat("is ", size_ratio, "; must be in [1, inf]"));
     v.throw_if_any();
   }
 };

@@ -775,9 +775,14 @@ class lsmps_semi_implicit {
     // within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at rest (3e-2 √(gH)
     // within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to −14 kPa.
     // The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface particle, or one
-    // with a copy, a pressure-boundary or a surface particle among its neighbours.
+    // with a copy, a pressure-boundary or a surface particle among its neighbours, or (multi-resolution) a
+    // neighbour whose diameter differs by more than boundary_filter.size_ratio: a mixed-size stencil is as
+    // asymmetric as a one-sided one (measured, docs/resolution.md: a refined disc in a tank at rest, 2:1, grew
+    // to 0.5 √(gH) by 4 √(H/g) without it and stayed at 1.3e-4 with it).
     fixed_volume_.assign(static_cast<std::size_t>(nt), 0);
-    if constexpr (has_surface || has_pressure_boundary || has_walls) {
+    const double rs = p_.boundary_filter.size_ratio;
+    const bool mixed_sizes = n > 0 && L_.head(n).maxCoeff() > rs * L_.head(n).minCoeff();
+    if (has_surface || has_pressure_boundary || has_walls || mixed_sizes) {
       for_each_particle(exec::par{}, n, [&](index_t i) {
         const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
         bool near = false, band = surface_[static_cast<std::size_t>(i)] != 0;
@@ -785,7 +790,8 @@ class lsmps_semi_implicit {
           // a copy (of a participating parent), a pressure-boundary particle, a surface particle
           const bool open = (j >= n && participates(j)) || (j < n && surface_[static_cast<std::size_t>(j)]);
           if (open && r2 < reach * reach) near = true;
-          band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0;
+          band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0 ||
+                 (mixed_sizes && participates(j) && (L_[j] > rs * L_[i] || L_[i] > rs * L_[j]));
         });
         fixed_volume_[static_cast<std::size_t>(i)] = near;
         one_sided_[static_cast<std::size_t>(i)] = band;
@@ -1020,7 +1026,7 @@ class lsmps_semi_implicit {
       flags = &frozen_flags_;
     }
     last_resolution_ = detail::run_resolution_stage<resolution_type>(s_, nl_, L_, normal_, walls_, xold_, op_, participates,
-                                                                     p_.resolution, ledger_, flags);
+                                                                     p_.resolution, ledger_, flags, p_.walls.alpha_w);
     c_.splits += static_cast<long>(last_resolution_.splits);
     c_.merges += static_cast<long>(last_resolution_.merges);
     sizes_from_volumes();

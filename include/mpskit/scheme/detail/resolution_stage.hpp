@@ -51,7 +51,8 @@ resolution::split_merge_report<D> run_resolution_stage(particle_state<D, Fields>
                                                        const Op& op, const Participates& participates,
                                                        const resolution::split_merge_params<D>& p,
                                                        resolution::conservation_ledger<D>& ledger,
-                                                       const std::vector<flag::type>* flags = nullptr) {
+                                                       const std::vector<flag::type>* flags = nullptr,
+                                                       double wall_reach = 1.0) {
   const index_t n = s.n_real();
   points<D> xg;  // positions of the moments (built on the first split only)
   std::array<Eigen::VectorXd, D> comp;
@@ -68,7 +69,7 @@ resolution::split_merge_report<D> run_resolution_stage(particle_state<D, Fields>
       G.row(a) = op.gradient(xg, nl, i, comp[static_cast<std::size_t>(a)], participates).transpose();
     return G;
   };
-  const resolution::split_merge_inputs<D> in{&nl, &L, &normals, flags, walls};
+  const resolution::split_merge_inputs<D> in{&nl, &L, &normals, flags, walls, wall_reach};
   return R::apply(exec::par{}, s, in, p, grad_u, &ledger);
 }
 
