@@ -6,7 +6,14 @@
 //
 // Options: --levels N1,N2,... (l0 = a/N), --solvers cg_ichol[,cholmod][,umfpack], --repetitions R,
 // --T-end T (dimensionless, default 3), --out DIR (default benchmarks/results), --data DIR (default
-// tests/data/dam_break_front of the source tree).
+// tests/data/dam_break_front of the source tree), --lsmps-levels N1,... (Tanaka's dam break with the LSMPS
+// scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A order,
+// default 2), --lsmps-T-end T (default: --T-end).
+//
+// The LSMPS case (cases/tanaka_dam_break_run.hpp, issue #7) has the same shape as Koshizuka & Oka's (vessel
+// 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data in
+// the same (T, Z). A run that fails before T_end is reported with NaN front errors (not plotted), the metric
+// "completed" = 0 (1 when it reached T_end), T_reached/100 and its samples in dam_break_fronts.csv.
 //
 // Error metric (docs/validation.md): at every front sample T_k ≤ T_end (ΔT = 0.05), Z_ref(T_k) is the
 // mean of the data series defined at T_k (Martin & Moyce 1952 two scales, Koshizuka & Oka 1996;
@@ -23,6 +30,7 @@
 #include <vector>
 
 #include "cases/dam_break.hpp"
+#include "cases/tanaka_dam_break_run.hpp"
 #include "reporter.hpp"
 #ifdef MPSKIT_HAS_SUITESPARSE
 #include "mpskit/ppe/suitesparse.hpp"
@@ -55,15 +63,15 @@ struct front_sample {
 };
 
 /// The samples T ≤ T_max where some data series is defined.
-std::vector<front_sample> front_samples(const cases::dam_break_result& r, const std::vector<cases::front_series>& data,
-                                        double T_max) {
+std::vector<front_sample> front_samples(const std::vector<double>& Ts, const std::vector<double>& Zs,
+                                        const std::vector<cases::front_series>& data, double T_max) {
   std::vector<front_sample> v;
-  for (std::size_t k = 0; k < r.T.size(); ++k) {
-    if (r.T[k] > T_max + 1e-9) break;
+  for (std::size_t k = 0; k < Ts.size(); ++k) {
+    if (Ts[k] > T_max + 1e-9) break;
     double zsum = 0.0;
     int m = 0;
     for (const auto& s : data) {
-      const double z = s.at(r.T[k]);
+      const double z = s.at(Ts[k]);
       if (!std::isnan(z)) {
         zsum += z;
         ++m;
@@ -71,7 +79,7 @@ std::vector<front_sample> front_samples(const cases::dam_break_result& r, const 
     }
     if (m == 0) continue;
     const double zref = zsum / m;
-    v.push_back({r.T[k], r.Z[k], zref, (r.Z[k] - zref) / zref});
+    v.push_back({Ts[k], Zs[k], zref, (Zs[k] - zref) / zref});
   }
   return v;
 }
@@ -109,10 +117,45 @@ bench::configuration make(const std::string& solver, int N, double T_end, const 
     o.steps = r.steps;
     o.wall_seconds = r.wall_seconds;
     o.ppe_iterations = r.ppe_iterations;
-    const std::vector<front_sample> v = front_samples(r, *data, std::min(3.0, T_end));
+    const std::vector<front_sample> v = front_samples(r.T, r.Z, *data, std::min(3.0, T_end));
     o.errors = front_errors(v);
     const std::string key = c_name;
     if (!g_fronts.count(key)) g_fronts[key] = v;
+    return o;
+  };
+  return c;
+}
+
+struct lsmps_order3 : lsmps_defaults<2> {
+  using op = mpskit::op::lsmps_a<2, 3, kernel>;
+};
+
+/// Tanaka's dam break with the LSMPS scheme's defaults at L = h0/N.
+template <class Scene>
+bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data) {
+  cases::tanaka_dam_break_config cfg;
+  cfg.L = cfg.column_width / N;
+  bench::configuration c;
+  c.name = "lsmps-" + std::to_string(order) + " h0/" + std::to_string(N);
+  c.series = "LSMPS-A order " + std::to_string(order) + " (Tanaka's vessel)";
+  c.l0 = cfg.L;
+  const std::string c_name = c.name;
+  c.run = [cfg, data, T_end, c_name]() {
+    const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, {}, true);
+    if (r.failed) std::cout << "  " << c_name << ": failed at T = " << r.T_failed << ": " << r.failure << "\n";
+    bench::run_outcome o;
+    o.particles = r.particles;
+    o.steps = r.steps;
+    o.wall_seconds = r.wall_seconds;
+    o.ppe_iterations = r.ppe_iterations;
+    const std::vector<front_sample> v = front_samples(r.T, r.Z, *data, std::min(3.0, T_end));
+    o.errors = front_errors(v);
+    if (r.failed)  // errors over the samples before a failure are not comparable: left out of the plot
+      for (bench::metric& m : o.errors) m.value = std::nan("");
+    o.errors.push_back({"completed", r.failed ? 0.0 : 1.0});
+    o.errors.push_back({"T_reached/100", (r.failed ? r.T_failed : T_end) / 100.0});
+    o.errors.push_back({"p_min/rho_g_H", r.p_min / r.rho_g_h});
+    if (!g_fronts.count(c_name)) g_fronts[c_name] = v;
     return o;
   };
   return c;
@@ -135,8 +178,9 @@ int main(int argc, char** argv) try {
 #ifdef MPSKIT_HAS_SUITESPARSE
   solvers.push_back("cholmod");
 #endif
+  std::vector<int> lsmps_levels{20, 25}, lsmps_orders{2};
   int reps = 3;
-  double T_end = 3.0;
+  double T_end = 3.0, lsmps_T_end = -1.0;
   std::string out = "benchmarks/results", data_dir = MPSKIT_DAM_BREAK_DATA_DIR;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -158,12 +202,30 @@ int main(int argc, char** argv) try {
     } else if (a == "--T-end") {
       T_end = std::stod(next());
       if (!(T_end > 0.0 && T_end <= 10.0)) fail("report_dam_break: --T-end ", T_end, " outside (0, 10]");
+    } else if (a == "--lsmps-levels") {
+      lsmps_levels.clear();
+      for (const std::string& s : split(next())) {
+        const int N = std::stoi(s);
+        if (N < 4 || N > 400) fail("report_dam_break: --lsmps-levels entry ", N, " outside [4, 400] (L = h0/N)");
+        lsmps_levels.push_back(N);
+      }
+    } else if (a == "--lsmps-orders") {
+      lsmps_orders.clear();
+      for (const std::string& s : split(next())) {
+        const int q = std::stoi(s);
+        if (q != 2 && q != 3) fail("report_dam_break: --lsmps-orders entry ", q, " (accepted: 2, 3)");
+        lsmps_orders.push_back(q);
+      }
+    } else if (a == "--lsmps-T-end") {
+      lsmps_T_end = std::stod(next());
+      if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
     } else if (a == "--out") {
       out = next();
     } else if (a == "--data") {
       data_dir = next();
     } else {
-      fail("report_dam_break: unknown option '", a, "' (--levels, --solvers, --repetitions, --T-end, --out, --data)");
+      fail("report_dam_break: unknown option '", a,
+           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --out, --data)");
     }
   }
   const std::vector<cases::front_series> data{cases::read_front_series(data_dir + "/martin_moyce_1952_a1.125in.csv"),
@@ -172,7 +234,7 @@ int main(int argc, char** argv) try {
   const char* threads = std::getenv("OMP_NUM_THREADS");
   std::cout << "dam break speed/error report; " << MPSKIT_BENCH_FLAGS << "; OMP_NUM_THREADS="
             << (threads ? threads : "(unset)") << "; repetitions " << reps << "\n";
-  bench::reporter rep("Dam break (Koshizuka & Oka)", reps);
+  bench::reporter rep("Dam break (Koshizuka & Oka; LSMPS in Tanaka's vessel)", reps);
   for (const std::string& s : solvers)
     for (int N : levels) {
       if (s == "cg_ichol") {
@@ -186,6 +248,12 @@ int main(int argc, char** argv) try {
       } else {
         fail("report_dam_break: solver '", s, "' is not available (cg_ichol; cholmod, umfpack with SuiteSparse)");
       }
+    }
+  if (lsmps_T_end < 0.0) lsmps_T_end = T_end;
+  for (int q : lsmps_orders)
+    for (int N : lsmps_levels) {
+      if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data));
+      else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data));
     }
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);

@@ -183,7 +183,7 @@ class reporter {
       if (!g) fail("reporter: cannot write '", gp.string(), "'");
       g << "set terminal pngcairo size 900,600 font 'sans,11' noenhanced\n"
         << "set output '" << png.string() << "'\n"
-        << "set title '" << case_ << ": " << metric_name << " against wall time (median of runs)'\n"
+        << "set title '" << gp_quoted(case_) << ": " << metric_name << " against wall time (median of runs)'\n"
         << "set xlabel 'wall time (s)'\nset ylabel '" << metric_name << "'\n"
         << (log_y ? "set logscale xy\n" : "set logscale x\n")
         << "set grid\nset key top left\nset offsets graph 0.05, graph 0.05, graph 0.15, graph 0.15\n"
@@ -191,7 +191,7 @@ class reporter {
       for (std::size_t k = 0; k < order.size(); ++k) {
         const char* off = k % 2 ? "offset 0,-1.2" : "offset 0,1.2";
         g << (k ? ", \\\n     " : "") << "'" << dat.string() << "' index " << k << " using 1:2 with linespoints pt 7 title '"
-          << order[k] << "', '' index " << k << " using 1:2:3 with labels " << off << " notitle";
+          << gp_quoted(order[k]) << "', '' index " << k << " using 1:2:3 with labels " << off << " notitle";
       }
       g << "\n";
     }
@@ -204,6 +204,16 @@ class reporter {
   }
 
  private:
+  /// Text inside a gnuplot single-quoted string: a quote is written twice (a series named "Tanaka's ..." broke
+  /// the script).
+  static std::string gp_quoted(const std::string& t) {
+    std::string q;
+    for (const char ch : t) {
+      q += ch;
+      if (ch == '\'') q += '\'';
+    }
+    return q;
+  }
   std::vector<std::string> metric_names() const {
     std::vector<std::string> n;
     for (const run_record& r : records_)

@@ -9,7 +9,7 @@
 
 #include "cases/dam_break.hpp"
 #include "cases/hydrostatic_polygon.hpp"
-#include "cases/tanaka_dam_break.hpp"
+#include "cases/tanaka_dam_break_run.hpp"
 #include "cases/taylor_green.hpp"
 #ifdef _OPENMP
 #include <omp.h>
@@ -359,8 +359,9 @@ TEST_SUITE("det_f") {
 
 namespace {
 
-/// Tanaka's dam break (§5.6.1) at L = 4 mm to T = T_end: front samples every 0.05 T against the band of
-/// issue #4 (Martin & Moyce and Koshizuka & Oka ± 10 %), lowest fluid pressure, guard activations.
+/// Tanaka's dam break (§5.6.1) at L = 4 mm to T = T_end (cases/tanaka_dam_break_run.hpp): front samples every
+/// 0.05 T against the band of issue #4 (Martin & Moyce and Koshizuka & Oka ± 10 %), lowest fluid pressure, guard
+/// activations.
 struct tanaka_run {
   int samples = 0, inside = 0;
   double pmin = 0.0;     // fluid particles, all steps
@@ -370,49 +371,27 @@ struct tanaka_run {
 tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize::penalty_projection projection) {
   cases::tanaka_dam_break_config c;
   c.L = 0.004;
-  const auto db = cases::make_tanaka_dam_break(c);
-  scheme::lsmps_state<2> s0(db.size());
-  s0.x() = db.x;
-  s0.u().setZero();
-  s0.get<field::volume>().setConstant(c.L * c.L);
   scheme::lsmps_params<2> p;
-  p.nu = c.mu / c.rho;
-  p.g << 0.0, -c.g;
-  p.time.dt_max = 0.1 * c.L / std::sqrt(2.0 * c.g * c.column_height);
   p.copy_two_point = copy_two_point;
   p.shift.projection = projection;
+  const auto r = cases::run_tanaka_dam_break(c, T_end, p);
   std::vector<cases::front_series> data;
   for (const char* f : {"koshizuka_oka_1996.csv", "martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv"})
     data.push_back(cases::read_front_series(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front/" + f));
-  simulation<lsmps_defaults<2>> sim(p, std::move(s0), &db.walls);
-  const double rho_g_h = c.rho * c.g * c.column_height;
-  double next = 0.0, pmin = 0.0;
   int samples = 0, inside = 0;
-  double pmin_all = 0.0;  // copies included (auxiliary unknowns of the wall rows)
-  while (db.t_star(sim.time()) < T_end) {
-    sim.step();
-    const index_t n = sim.state().n_real();
-    const auto& P = sim.state().get<field::pressure>();
-    for (index_t i = 0; i < n; ++i) pmin = std::min(pmin, P[i]);
-    for (index_t i = n; i < sim.state().size(); ++i) pmin_all = std::min(pmin_all, P[i]);
-    const double T = db.t_star(sim.time());
-    if (T < next) continue;
-    next += 0.05;
-    const auto& fl = sim.state().flags();
-    const Eigen::VectorXd d = Eigen::VectorXd::Constant(n, c.L);
-    const double Z = db.front_star(sim.state().x(), d, n, [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; });
-    const auto band = cases::front_band(data, T);
+  for (std::size_t k = 0; k < r.T.size(); ++k) {
+    const auto band = cases::front_band(data, r.T[k]);
     if (std::isnan(band.first)) continue;
     ++samples;
-    const bool ok = Z >= band.first && Z <= band.second;
+    const bool ok = r.Z[k] >= band.first && r.Z[k] <= band.second;
     inside += ok;
-    if (!ok) std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", T, Z, band.first, band.second);
+    if (!ok) std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", r.T[k], r.Z[k], band.first, band.second);
   }
   std::printf("dam_break_lsmps L = 4 mm to T = %.2f (copy_two_point %g, wall_only %d): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = %.0f; copies %.0f), "
               "%ld steps, filtered %ld particle-steps, guarded %ld\n",
-              T_end, copy_two_point, int(projection == regularize::penalty_projection::wall_only), inside, samples, pmin, -rho_g_h, pmin_all, sim.counters().steps, sim.counters().filtered,
-              sim.counters().guarded);
-  return {samples, inside, pmin, rho_g_h, sim.counters().guarded};
+              T_end, copy_two_point, int(projection == regularize::penalty_projection::wall_only), inside, samples, r.p_min,
+              -r.rho_g_h, r.p_min_copies, r.steps, r.filtered, r.guarded);
+  return {samples, inside, r.p_min, r.rho_g_h, r.guarded};
 }
 
 }  // namespace

@@ -1,0 +1,82 @@
+#pragma once
+// Runs Tanaka's dam break (cases/tanaka_dam_break.hpp, §5.6.1) with the LSMPS scheme: front samples every
+// 0.05 in T = t √(2g/h0), the lowest fluid (and copy) pressure, counters and wall time. Shared by the test
+// label dam_break_lsmps and the speed-against-error reporter (benchmarks/report_dam_break.cpp).
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cases/tanaka_dam_break.hpp"
+#include "mpskit/scene.hpp"
+
+namespace mpskit::cases {
+
+/// What one run measured.
+struct tanaka_dam_break_result {
+  std::vector<double> T, Z;     ///< front samples h* (Z) at T = t* every 0.05 (the first at or after each multiple)
+  double p_min = 0.0;           ///< lowest fluid pressure over all steps (Pa)
+  double p_min_copies = 0.0;    ///< lowest imaginary-copy pressure (auxiliary unknowns of the wall rows, Pa)
+  double rho_g_h = 0.0;         ///< ρ g H of the column (Pa)
+  index_t particles = 0;        ///< fluid particles
+  long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
+  double wall_seconds = 0.0;    ///< wall time of the time loop (s)
+  bool failed = false;          ///< the scheme threw (only with catch_failure)
+  double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
+  std::string failure;          ///< the error's text
+};
+
+/// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g and Δt_max =
+/// 0.1 L / √(2 g H) are set from the case. With catch_failure an mpskit::error ends the run and is recorded
+/// (the reporter's failed configurations); otherwise it propagates.
+template <class Scene = lsmps_defaults<2>>
+tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, double T_end,
+                                             scheme::lsmps_params<2> p = {}, bool catch_failure = false) {
+  const auto db = make_tanaka_dam_break(c);
+  scheme::lsmps_state<2> s0(db.size());
+  s0.x() = db.x;
+  s0.u().setZero();
+  s0.template get<field::volume>().setConstant(c.L * c.L);
+  p.nu = c.mu / c.rho;
+  p.g << 0.0, -c.g;
+  p.time.dt_max = 0.1 * c.L / std::sqrt(2.0 * c.g * c.column_height);
+  simulation<Scene> sim(p, std::move(s0), &db.walls);
+  tanaka_dam_break_result r;
+  r.rho_g_h = c.rho * c.g * c.column_height;
+  r.particles = db.size();
+  double next = 0.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    while (db.t_star(sim.time()) < T_end) {
+      sim.step();
+      const index_t n = sim.state().n_real();
+      const auto& P = sim.state().template get<field::pressure>();
+      for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
+      for (index_t i = n; i < sim.state().size(); ++i) r.p_min_copies = std::min(r.p_min_copies, P[i]);
+      const double T = db.t_star(sim.time());
+      if (T < next) continue;
+      next += 0.05;
+      const auto& fl = sim.state().flags();
+      const Eigen::VectorXd d = Eigen::VectorXd::Constant(n, c.L);
+      r.T.push_back(T);
+      r.Z.push_back(db.front_star(sim.state().x(), d, n,
+                                  [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; }));
+    }
+  } catch (const mpskit::error& e) {
+    if (!catch_failure) throw;
+    r.failed = true;
+    r.T_failed = db.t_star(sim.time());
+    r.failure = e.what();
+  }
+  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.steps = sim.counters().steps;
+  r.guarded = sim.counters().guarded;
+  r.filtered = sim.counters().filtered;
+  r.ppe_iterations = sim.counters().ppe_iterations;
+  return r;
+}
+
+}  // namespace mpskit::cases
