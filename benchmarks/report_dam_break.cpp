@@ -100,6 +100,22 @@ std::vector<bench::metric> front_errors(const std::vector<front_sample>& v) {
 /// Front samples of each configuration's first run (written to dam_break_fronts.csv).
 std::map<std::string, std::vector<front_sample>> g_fronts;
 
+/// The reporter's outcome of a run result R (cases::dam_break_result or tanaka_dam_break_result): counts, wall
+/// time, front errors over T ≤ min(3, T_end); the samples of the configuration's first run are kept.
+template <class R>
+bench::run_outcome outcome_of(const R& r, const std::vector<cases::front_series>& data, double T_end,
+                              const std::string& name) {
+  bench::run_outcome o;
+  o.particles = r.particles;
+  o.steps = r.steps;
+  o.wall_seconds = r.wall_seconds;
+  o.ppe_iterations = r.ppe_iterations;
+  const std::vector<front_sample> v = front_samples(r.T, r.Z, data, std::min(3.0, T_end));
+  o.errors = front_errors(v);
+  if (!g_fronts.count(name)) g_fronts[name] = v;
+  return o;
+}
+
 template <class Scene>
 bench::configuration make(const std::string& solver, int N, double T_end, const std::vector<cases::front_series>* data) {
   cases::dam_break_config cfg;
@@ -111,17 +127,7 @@ bench::configuration make(const std::string& solver, int N, double T_end, const 
   c.l0 = cfg.l0;
   const std::string c_name = c.name;
   c.run = [cfg, data, T_end, c_name]() {
-    const cases::dam_break_result r = cases::run_dam_break<Scene>(cfg);
-    bench::run_outcome o;
-    o.particles = r.particles;
-    o.steps = r.steps;
-    o.wall_seconds = r.wall_seconds;
-    o.ppe_iterations = r.ppe_iterations;
-    const std::vector<front_sample> v = front_samples(r.T, r.Z, *data, std::min(3.0, T_end));
-    o.errors = front_errors(v);
-    const std::string key = c_name;
-    if (!g_fronts.count(key)) g_fronts[key] = v;
-    return o;
+    return outcome_of(cases::run_dam_break<Scene>(cfg), *data, T_end, c_name);
   };
   return c;
 }
@@ -143,19 +149,12 @@ bench::configuration make_lsmps(int order, int N, double T_end, const std::vecto
   c.run = [cfg, data, T_end, c_name]() {
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, {}, true);
     if (r.failed) std::cout << "  " << c_name << ": failed at T = " << r.T_failed << ": " << r.failure << "\n";
-    bench::run_outcome o;
-    o.particles = r.particles;
-    o.steps = r.steps;
-    o.wall_seconds = r.wall_seconds;
-    o.ppe_iterations = r.ppe_iterations;
-    const std::vector<front_sample> v = front_samples(r.T, r.Z, *data, std::min(3.0, T_end));
-    o.errors = front_errors(v);
+    bench::run_outcome o = outcome_of(r, *data, T_end, c_name);
     if (r.failed)  // errors over the samples before a failure are not comparable: left out of the plot
       for (bench::metric& m : o.errors) m.value = std::nan("");
     o.errors.push_back({"completed", r.failed ? 0.0 : 1.0});
     o.errors.push_back({"T_reached/100", (r.failed ? r.T_failed : T_end) / 100.0});
     o.errors.push_back({"p_min/rho_g_H", r.p_min / r.rho_g_h});
-    if (!g_fronts.count(c_name)) g_fronts[c_name] = v;
     return o;
   };
   return c;

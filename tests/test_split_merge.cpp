@@ -147,6 +147,21 @@ mat<D> zero_grad(index_t) {
   return mat<D>::Zero();
 }
 
+/// Min over neighbour pairs within 1.5 L_ij of r_ij / L_ij, L_ij = (L_i + L_j)/2, 2D diameters √V (issue #9's
+/// clustering measure).
+template <class State>
+double min_pair_ratio(const State& st, const search::domain<2>& dom) {
+  Eigen::VectorXd Ld(st.n_real());
+  for (index_t i = 0; i < st.n_real(); ++i) Ld[i] = std::sqrt(st.template get<field::volume>()[i]);
+  points<2> x = st.x().leftCols(st.n_real());
+  search::neighbour_list<2> nl;
+  nl.build(exec::seq{}, x, search::per_particle_radius{&Ld, 1.5}, {0.0, dom});
+  double m = 1e300;
+  for (index_t i = 0; i < x.cols(); ++i)
+    for (const auto j : nl.neighbours(i)) m = std::min(m, nl.displacement(x, i, j).norm() / (0.5 * (Ld[i] + Ld[j])));
+  return m;
+}
+
 /// Sorted (x, u, V, p) of every real particle: an order-free picture of a state, compared bitwise.
 template <int D>
 std::vector<std::vector<double>> picture(const sm_state<D>& s) {
@@ -1103,19 +1118,7 @@ TEST_SUITE("multires_hard") {
       return v;
     };
     const double V0 = volume();
-    // min over pairs within 1.5 L_ij of r_ij / L_ij, L_ij = (L_i + L_j)/2
-    const auto min_ratio = [&]() {
-      const auto& st = sim.state();
-      Eigen::VectorXd Ld(st.n_real());
-      for (index_t i = 0; i < st.n_real(); ++i) Ld[i] = std::sqrt(st.template get<field::volume>()[i]);
-      points<2> x = st.x().leftCols(st.n_real());
-      search::neighbour_list<2> nl;
-      nl.build(exec::seq{}, x, search::per_particle_radius{&Ld, 1.5}, {0.0, p.domain});
-      double m = 1e300;
-      for (index_t i = 0; i < x.cols(); ++i)
-        for (const auto j : nl.neighbours(i)) m = std::min(m, nl.displacement(x, i, j).norm() / (0.5 * (Ld[i] + Ld[j])));
-      return m;
-    };
+    const auto min_ratio = [&]() { return min_pair_ratio(sim.state(), p.domain); };
     hard_outcome o;
     long k = 0;
     while (sim.time() < T_end * T) {
@@ -1150,6 +1153,17 @@ TEST_SUITE("multires_hard") {
     return o;
   }
 
+  // A 2D box tank (vertical walls) of width W filled to H with L = 10 mm.
+  cases::polygon_tank_config box_tank(double W, double H, double height) {
+    cases::polygon_tank_config tc;
+    tc.W = W;
+    tc.H = H;
+    tc.tank_height = height;
+    tc.L = 0.01;
+    tc.angle_deg = 90.0;
+    return tc;
+  }
+
   // The issue's bounds, common to every case.
   void check_issue_bounds(const hard_outcome& o) {
     CHECK(o.umax_run <= 5.0);
@@ -1165,12 +1179,7 @@ TEST_SUITE("multires_hard") {
     // a refined region. Four generations: L_min = L/√32 = 0.177 L. Measured: ≈ 1450 particles, max |u| 9.2e-2
     // √(gH) during the ramp and 1.1e-3 at the end, min r_ij/L_ij 0.70; without mixed-size stencils in the
     // filter band it failed at 4 √(H/g).
-    cases::polygon_tank_config tc;
-    tc.W = 0.3;
-    tc.H = 0.2;
-    tc.tank_height = 0.3;
-    tc.L = 0.01;
-    tc.angle_deg = 90.0;
+    const cases::polygon_tank_config tc = box_tank(0.3, 0.2, 0.3);
     const double L = tc.L;
     const auto o = run_hard_tank(tc, 12.0, [L](const vec<2>& x, double t) {
       const double Lf = L / (1.0 + 4.0 * std::min(t / 0.5, 1.0));
@@ -1189,12 +1198,7 @@ TEST_SUITE("multires_hard") {
     // Measured: at once, max |u| 0.13 √(gH) in the first steps, 1.7e-2 at the end, min r_ij/L_ij 0.342; ramped:
     // 7.9e-3 and 2.7e-3, 0.373. Without the wall-contact rule the first row sat 1.06-1.41 L′ above the floor
     // (no copies there) and the PPE failed at step 16 (at once) or t = 4.1 √(H/g) (ramped).
-    cases::polygon_tank_config tc;
-    tc.W = 0.2;
-    tc.H = 0.1;
-    tc.tank_height = 0.2;
-    tc.L = 0.01;
-    tc.angle_deg = 90.0;
+    const cases::polygon_tank_config tc = box_tank(0.2, 0.1, 0.2);
     const double L = tc.L;
     for (const double ramp : {0.0, 0.5}) {
       CAPTURE(ramp);
@@ -1251,20 +1255,7 @@ TEST_SUITE("taylor_green_multires") {
           e += 0.5 * c.rho * st.template get<field::volume>()[i] * st.u().col(i).squaredNorm();
         return e;
       };
-      // min over neighbour pairs of r_ij / L_ij, L_ij = (L_i + L_j)/2, pairs within 1.5 L_ij
-      const auto min_ratio = [&]() {
-        const auto& st = sim.state();
-        Eigen::VectorXd Ld(st.n_real());
-        for (index_t i = 0; i < st.n_real(); ++i) Ld[i] = std::sqrt(st.template get<field::volume>()[i]);
-        points<2> x = st.x().leftCols(st.n_real());
-        search::neighbour_list<2> nl;
-        nl.build(exec::seq{}, x, search::per_particle_radius{&Ld, 1.5}, {0.0, p.domain});
-        double m = 1e300;
-        for (index_t i = 0; i < x.cols(); ++i)
-          for (const auto j : nl.neighbours(i))
-            m = std::min(m, nl.displacement(x, i, j).norm() / (0.5 * (Ld[i] + Ld[j])));
-        return m;
-      };
+      const auto min_ratio = [&]() { return min_pair_ratio(sim.state(), p.domain); };
       outcome o;
       const double e0 = ke();
       o.rmin = min_ratio();
