@@ -167,7 +167,10 @@ struct split_merge_params {
   /// model's α_w: it has a copy) keep the wall in contact: the nearer child within wall_contact · L′ of it (ours;
   /// the paper asks only for the clearance). Without it a first row split three times in a row sat 1.06–1.41 L′
   /// above the floor, beyond α_w L′, so no copy held the wall there and the PPE failed two steps later
-  /// (docs/resolution.md "Hard cases"). Off by default (inf): with 0.75 the multi-diameter channel's PPE stopped
+  /// (docs/resolution.md "Hard cases"). Contact means with any wall (in a corner the side wall may satisfy a
+  /// floor-touching parent), and the rule is stricter than α_w: it can refuse a split whose nearer child would
+  /// still be copied (up to α_w L′), leaving such a particle coarse (counted as refusal::wall_contact).
+  /// Off by default (inf): with 0.75 the multi-diameter channel's PPE stopped
   /// converging at step 162 (t = 0.068 s; not yet understood). Accepted [wall_clearance, inf]; 0.75 is the
   /// measured value for a fluid at rest.
   double wall_contact = std::numeric_limits<double>::infinity();
@@ -640,6 +643,8 @@ struct split_merge final {
         fail("split_merge: the neighbour list has ", in_.neighbours->rows(), " rows, the state ", nt,
              " particles (build it over real + ghosts of this state)");
       if (!in_.L) fail("split_merge: inputs.L is null (per-particle diameters are required)");
+      if (!(std::isfinite(in_.wall_reach) && in_.wall_reach > 0.0))
+        fail("split_merge: inputs.wall_reach = ", in_.wall_reach, ", accepted range (0, inf) (the wall model's alpha_w)");
       if (in_.L->size() != nt) fail("split_merge: inputs.L has ", in_.L->size(), " entries for ", nt, " particles");
       if (in_.normals && in_.normals->cols() != nt)
         fail("split_merge: inputs.normals has ", in_.normals->cols(), " columns for ", nt, " particles");

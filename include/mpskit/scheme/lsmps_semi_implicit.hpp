@@ -152,7 +152,8 @@ struct lsmps_params {
   /// α_g, α_T, α_p, α_S (eqs. 93–100); the penalty of eq. 96 acts per pair (a deviation, docs/solver.md)
   regularize::tanaka_shift_params shift = pair_penalty_shift();
   /// ε of the velocity filter in the one-sided band (particles with a wall copy, a pressure-boundary or a
-  /// free-surface particle among their neighbours; a deviation, regularize/boundary_filter.hpp): with the
+  /// free-surface particle among their neighbours, or a neighbour of another size beyond size_ratio; a
+  /// deviation, regularize/boundary_filter.hpp): with the
   /// paper's scheme alone the linearised step grows ≈ 1.5 % per step there. 0 switches it off.
   regularize::boundary_filter_params boundary_filter{};
   bool thin_walls = true;               ///< pairs whose segment crosses a wall are not neighbours (walls
@@ -453,8 +454,9 @@ class lsmps_semi_implicit {
       s_.u().col(i) = unew;
     });
     // 9b. Velocity filter in the one-sided band (a deviation; regularize/boundary_filter.hpp): particles with
-    //     a copy, a pressure-boundary particle or a free-surface particle among their neighbours.
-    //     The band (one_sided_) is flagged in the near-surface sweep of solve_pressure.
+    //     a copy, a pressure-boundary particle, a free-surface particle or (multi-resolution) a particle of
+    //     another size among their neighbours. The band (one_sided_) is flagged in the near-surface sweep of
+    //     solve_pressure.
     if (p_.boundary_filter.strength > 0.0) {
       const auto one_sided = [&](index_t i) { return one_sided_[static_cast<std::size_t>(i)] != 0; };
       // Fitted values: the fluid's velocities and the copies' wall velocity (no-slip; with the parent's
