@@ -187,13 +187,17 @@ int main(int argc, char** argv) try {
       if (k + 1 >= argc) fail("report_dam_break: option ", a, " needs a value");
       return argv[++k];
     };
-    if (a == "--levels") {
-      levels.clear();
+    // a list of resolutions N (spacing = column width / N)
+    const auto parse_levels = [&](std::vector<int>& out, const char* what) {
+      out.clear();
       for (const std::string& s : split(next())) {
         const int N = std::stoi(s);
-        if (N < 4 || N > 400) fail("report_dam_break: --levels entry ", N, " outside [4, 400] (l0 = a/N)");
-        levels.push_back(N);
+        if (N < 4 || N > 400) fail("report_dam_break: ", a, " entry ", N, " outside [4, 400] (", what, ")");
+        out.push_back(N);
       }
+    };
+    if (a == "--levels") {
+      parse_levels(levels, "l0 = a/N");
     } else if (a == "--solvers") {
       solvers = split(next());
     } else if (a == "--repetitions") {
@@ -202,12 +206,7 @@ int main(int argc, char** argv) try {
       T_end = std::stod(next());
       if (!(T_end > 0.0 && T_end <= 10.0)) fail("report_dam_break: --T-end ", T_end, " outside (0, 10]");
     } else if (a == "--lsmps-levels") {
-      lsmps_levels.clear();
-      for (const std::string& s : split(next())) {
-        const int N = std::stoi(s);
-        if (N < 4 || N > 400) fail("report_dam_break: --lsmps-levels entry ", N, " outside [4, 400] (L = h0/N)");
-        lsmps_levels.push_back(N);
-      }
+      parse_levels(lsmps_levels, "L = h0/N");
     } else if (a == "--lsmps-orders") {
       lsmps_orders.clear();
       for (const std::string& s : split(next())) {

@@ -520,19 +520,18 @@ TEST_SUITE("split_merge") {
       CHECK(std::abs(rep.split_events[0].t[1]) < 1e-15);
       CHECK(lower_child(w, rep.split_events[0]) == doctest::Approx(0.62 * l0).epsilon(1e-12));
     }
+    // the same rule with the target reaching the higher parents
+    auto wide = split_at<2>(vec<2>(0.1, 0.0), 1.2 * l0);
+    wide.wall_contact = 0.75;
     SUBCASE("h = 1.1 l0: not in contact (beyond α_w L), the split is horizontal") {
       auto w = setup(1.1 * l0);
-      auto q = split_at<2>(vec<2>(0.1, 0.0), 1.2 * l0);
-      q.wall_contact = 0.75;
-      const auto rep = w.run(q, zero_grad<2>);
+      const auto rep = w.run(wide, zero_grad<2>);
       REQUIRE(rep.splits == 1);
       CHECK(std::abs(rep.split_events[0].t[1]) < 1e-15);
     }
     SUBCASE("h = 0.95 l0: no direction brings a child within 0.75 L′ (0.95 − 0.247 > 0.530): refused, counted") {
       auto w = setup(0.95 * l0);
-      auto q = split_at<2>(vec<2>(0.1, 0.0), 1.2 * l0);
-      q.wall_contact = 0.75;
-      const auto rep = w.run(q, zero_grad<2>);
+      const auto rep = w.run(wide, zero_grad<2>);
       CHECK(rep.splits == 0);
       CHECK(rep.refused_for(res::refusal::wall_contact) == 1);
       CHECK(w.s.n_real() == 2);
