@@ -779,6 +779,32 @@ TEST_SUITE("cases_lsmps") {
     }
   }
 
+  TEST_CASE("cases: Tanaka dam break with the obstacle of §5.6.2: block walls, column, probe") {
+    const double L = 0.005;
+    const cases::tanaka_dam_break d = cases::make_tanaka_dam_break(cases::tanaka_obstacle_config(L));
+    // Column 100 × 250 mm on the 5 mm lattice: L divides both sides, 20 × 50 particles, none in the block.
+    CHECK(d.size() == 20 * 50);
+    CHECK(min_signed_distance<2>(d.walls, d.x) >= 0.5 * L - 1e-12);
+    // Left wall, floor, the block's left face, top, right face, floor, right wall; normals into the fluid.
+    REQUIRE(d.walls.size() == 7);
+    const vec<2> expected[7] = {{1, 0}, {0, 1}, {-1, 0}, {0, 1}, {1, 0}, {0, 1}, {-1, 0}};
+    for (index_t k = 0; k < 7; ++k) CHECK((d.walls.element_normal(k) - expected[k]).norm() <= 1e-15);
+    // Probe 5 mm above the block's top centre (0, 10 mm); a point inside the block is behind the walls.
+    CHECK((d.obstacle_probe() - vec<2>(0.0, 0.015)).norm() <= 1e-15);
+    CHECK(d.walls.signed_distance(d.obstacle_probe()) == doctest::Approx(0.005).epsilon(1e-12));
+    CHECK(d.walls.signed_distance(vec<2>(0.0, 0.004)) < 0.0);
+    CHECK(d.walls.signed_distance(vec<2>(0.1, 0.004)) == doctest::Approx(0.004).epsilon(1e-12));
+    // Without an obstacle there is no block probe; half an obstacle and a block in the column are refused.
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break({.L = 0.01}).obstacle_probe(), doctest::Contains("no obstacle"),
+                         mpskit::error);
+    cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(0.01);
+    c.obstacle_height = 0.0;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("both"), mpskit::error);
+    c = cases::tanaka_obstacle_config(0.01);
+    c.obstacle_centre = -0.1;
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("inside the column"), mpskit::error);
+  }
+
   TEST_CASE("cases: Tanaka dam break refuses bad configurations") {
     cases::tanaka_dam_break_config c;
     c.L = 0.0;

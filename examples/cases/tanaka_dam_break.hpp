@@ -8,6 +8,9 @@
 // h0 = 100 mm, the same (T, Z) as cases/dam_break.hpp (Z = front/a, T = t √(2g/a), front including
 // the half extent l0/2), so read_front_series and front_band there compare it with
 // ../shared/data/dam_break_front (Martin & Moyce 1952, Koshizuka & Oka 1996).
+// With an obstacle (§5.6.2, validation-cases.md A7; tanaka_obstacle_config()): a block on the floor, 10 × 10 mm
+// at mid-vessel (the paper says "mid-vessel"; centred on x = 0 is our reading), column 100 × 250 mm, probe
+// 5 mm above the block's top centre.
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -18,6 +21,7 @@
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/geometry/generators.hpp"
+#include "mpskit/geometry/polygon_mesh.hpp"
 #include "mpskit/geometry/polygon_set.hpp"
 #include "mpskit/wall/polygon_layers.hpp"
 
@@ -34,6 +38,11 @@ struct tanaka_dam_break_config {
   double rho = 1000.0;            ///< density (kg/m³)
   double mu = 0.001;              ///< dynamic viscosity (Pa s)
   double g = 9.8;                 ///< gravity magnitude (m/s², the paper's 9.8)
+  double obstacle_width = 0.0;    ///< block on the floor (m; 0 with obstacle_height 0: none; §5.6.2: 10 mm)
+  double obstacle_height = 0.0;   ///< its height (m; §5.6.2: 10 mm)
+  double obstacle_centre = 0.0;   ///< x of its centre (m; §5.6.2 "mid-vessel", our reading x = 0)
+  /// True when the vessel has a block on its floor.
+  bool has_obstacle() const { return obstacle_width > 0.0 || obstacle_height > 0.0; }
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("tanaka_dam_break_config");
@@ -45,6 +54,18 @@ struct tanaka_dam_break_config {
     v.require(column_height < vessel_height, "column_height", "must be below vessel_height");
     if (std::isfinite(L) && L > 0.0 && !(L <= column_width && L <= column_height))
       v.require(false, "L", mpskit::detail::concat("is ", L, ", must be <= min(column_width, column_height)"));
+    v.non_negative("obstacle_width", obstacle_width).non_negative("obstacle_height", obstacle_height);
+    v.finite("obstacle_centre", obstacle_centre);
+    if (has_obstacle()) {
+      v.require(obstacle_width > 0.0 && obstacle_height > 0.0, "obstacle_width",
+                "and obstacle_height must both be > 0 (or both 0: no obstacle)");
+      v.require(obstacle_centre - 0.5 * obstacle_width >= vessel_left + column_width, "obstacle_centre",
+                mpskit::detail::concat("puts the block's left face at ", obstacle_centre - 0.5 * obstacle_width,
+                                       ", inside the column (which ends at ", vessel_left + column_width, ")"));
+      v.require(obstacle_centre + 0.5 * obstacle_width < vessel_right, "obstacle_centre",
+                "puts the block's right face at or beyond the right wall");
+      v.require(obstacle_height < vessel_height, "obstacle_height", "must be below vessel_height");
+    }
     v.throw_if_any();
   }
 };
@@ -68,6 +89,11 @@ struct tanaka_dam_break {
   double h0() const { return config.column_width; }
   /// Pressure probe at (195 mm, 5 mm): 5 mm from the right wall and the floor (vessel_right − 5 mm).
   vec<2> probe() const { return vec<2>(config.vessel_right - 0.005, 0.005); }
+  /// §5.6.2's probe, 5 mm above the block's top centre (pressure and velocity; needs an obstacle).
+  vec<2> obstacle_probe() const {
+    if (!config.has_obstacle()) fail("tanaka_dam_break::obstacle_probe: the vessel has no obstacle");
+    return vec<2>(config.obstacle_centre, config.obstacle_height + 0.005);
+  }
   /// t* = t √(2g/h0) (Tanaka Fig. 26a; Koshizuka & Oka's T).
   double t_star(double t) const { return t * std::sqrt(2.0 * config.g / h0()); }
   /// Front h (m) = max over the first n particles with counted(i) of x_i + L_i/2, minus the left wall x;
@@ -89,13 +115,46 @@ struct tanaka_dam_break {
   }
 };
 
-/// Builds the vessel (geometry::tank: polyline (left, top) → (left, 0) → (right, 0) → (right, top), left
-/// normals into the vessel) and fills the column with the lattice vessel_left + (k + ½) L, (m + ½) L
+/// The numbers of §5.6.2 (dam break with a small obstacle): column 100 × 250 mm, block 10 × 10 mm at x = 0;
+/// the vessel's side walls 375 mm tall (1.5 × the column, as without the obstacle).
+inline tanaka_dam_break_config tanaka_obstacle_config(double L = 0.001) {
+  tanaka_dam_break_config c;
+  c.L = L;
+  c.column_height = 0.25;
+  c.vessel_height = 0.375;
+  c.obstacle_width = 0.01;
+  c.obstacle_height = 0.01;
+  c.obstacle_centre = 0.0;
+  return c;
+}
+
+/// The vessel's walls: geometry::tank's polyline (left, top) → (left, 0) → (right, 0) → (right, top), left
+/// normals into the vessel; with an obstacle the floor goes over the block (up its left face, across its top,
+/// down its right face), so the block's faces are walls with two convex and two concave corners.
+inline geometry::polygon_mesh<2> tanaka_dam_break_walls(const tanaka_dam_break_config& c) {
+  if (!c.has_obstacle()) return geometry::tank(vec<2>(c.vessel_left, 0.0), vec<2>(c.vessel_right, c.vessel_height));
+  const double a = c.obstacle_centre - 0.5 * c.obstacle_width, b = c.obstacle_centre + 0.5 * c.obstacle_width;
+  geometry::polygon_mesh<2> m;
+  m.vertices.resize(2, 8);
+  m.vertices.col(0) = vec<2>(c.vessel_left, c.vessel_height);
+  m.vertices.col(1) = vec<2>(c.vessel_left, 0.0);
+  m.vertices.col(2) = vec<2>(a, 0.0);
+  m.vertices.col(3) = vec<2>(a, c.obstacle_height);
+  m.vertices.col(4) = vec<2>(b, c.obstacle_height);
+  m.vertices.col(5) = vec<2>(b, 0.0);
+  m.vertices.col(6) = vec<2>(c.vessel_right, 0.0);
+  m.vertices.col(7) = vec<2>(c.vessel_right, c.vessel_height);
+  m.elements.resize(2, 7);
+  for (index_t k = 0; k < 7; ++k) m.elements.col(k) << k, k + 1;
+  return m;
+}
+
+/// Builds the vessel (tanaka_dam_break_walls) and fills the column with the lattice vessel_left + (k + ½) L, (m + ½) L
 /// kept where the signed distance to the walls is ≥ L/2 (1e-12 L rounding allowance): with L dividing
 /// h0 and the column height this is exactly (h0/L) × (column_height/L) particles.
 inline tanaka_dam_break make_tanaka_dam_break(const tanaka_dam_break_config& c = {}) {
   c.validate();
-  geometry::polygon_set<2> walls(geometry::tank(vec<2>(c.vessel_left, 0.0), vec<2>(c.vessel_right, c.vessel_height)));
+  geometry::polygon_set<2> walls(tanaka_dam_break_walls(c));
   const vec<2> origin(c.vessel_left, 0.0);
   points<2> x = fill_half_spacing<2>(walls, origin, vec<2>(c.vessel_left + c.column_width, c.column_height), c.L,
                                      origin);
