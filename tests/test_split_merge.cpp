@@ -28,6 +28,7 @@
 #include "mpskit/resolution/ledger.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
+#include "speed_up.hpp"
 #include "mpskit/scheme/lsmps_semi_implicit.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 #include "mpskit/wall/dummy_layers.hpp"
@@ -237,6 +238,38 @@ res::split_merge_params<D> banded_target() {
 }  // namespace
 
 TEST_SUITE("split_merge") {
+
+  TEST_CASE("speed-up at equal error (issue #9 reporter): power-law interpolation, bounds, bad input") {
+    using bench::cost_point;
+    using kind = bench::speed_up_result::kind;
+    // A convergent single-resolution curve e = 0.3 t^(-1/2): log-log interpolation reproduces it exactly, so a
+    // multi-resolution run with e = 0.3 / sqrt(30) taking 5 s is worth 30 s of single resolution: speed-up 6.
+    const auto e = [](double t) { return 0.3 / std::sqrt(t); };
+    const std::vector<cost_point> curve{{100.0, e(100.0)}, {1.0, e(1.0)}, {10.0, e(10.0)}};  // any order
+    const auto r = bench::speed_up(curve, {5.0, e(30.0)});
+    CHECK(r.how == kind::interpolated);
+    CHECK(r.single_seconds == doctest::Approx(30.0).epsilon(1e-12));
+    CHECK(r.speed_up == doctest::Approx(6.0).epsilon(1e-12));
+    // On a measured point: that point's time.
+    CHECK(bench::speed_up(curve, {2.0, e(10.0)}).speed_up == doctest::Approx(5.0).epsilon(1e-14));
+    // Worse than the cheapest single run: single needs at most 1 s, speed-up <= 1/5 (a bound, not extrapolated).
+    const auto worse = bench::speed_up(curve, {5.0, 1.0});
+    CHECK(worse.how == kind::at_most);
+    CHECK(worse.speed_up == doctest::Approx(0.2).epsilon(1e-14));
+    // Better than the dearest single run: single needs at least 100 s, speed-up >= 20.
+    const auto better = bench::speed_up(curve, {5.0, 1e-3});
+    CHECK(better.how == kind::at_least);
+    CHECK(better.speed_up == doctest::Approx(20.0).epsilon(1e-14));
+    // An error that grows with cost (the dam break's front, docs/validation.md): the cheapest crossing.
+    const std::vector<cost_point> rising{{1.0, 0.05}, {4.0, 0.06}, {16.0, 0.04}};
+    const auto x = bench::speed_up(rising, {2.0, 0.055});
+    CHECK(x.how == kind::interpolated);
+    CHECK(x.single_seconds == doctest::Approx(std::exp(std::log(4.0) * std::log(1.1) / std::log(1.2))).epsilon(1e-12));
+    CHECK_THROWS_WITH_AS(bench::speed_up({}, {1.0, 0.1}), doctest::Contains("no single-resolution run"), mpskit::error);
+    CHECK_THROWS_WITH_AS(bench::speed_up(curve, {0.0, 0.1}), doctest::Contains("multi-resolution run"), mpskit::error);
+    CHECK_THROWS_WITH_AS(bench::speed_up({{1.0, std::nan("")}}, {1.0, 0.1}), doctest::Contains("single-resolution run"),
+                         mpskit::error);
+  }
   TEST_CASE("split_merge: thresholds β_s (eq. 66) and β_m (eq. 71) from the paper's formulas") {
     using T = res::tanaka_thresholds;
     const double bs2 = T::beta_s<2>(), bs3 = T::beta_s<3>(), bm2 = T::beta_m<2>(), bm3 = T::beta_m<3>();
