@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -21,6 +22,7 @@
 #include "cases/poiseuille.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "reporter.hpp"
+#include "speed_up.hpp"
 
 using namespace mpskit;
 
@@ -159,6 +161,32 @@ int main(int argc, char** argv) try {
   const std::filesystem::path png = std::filesystem::path(out) / (stem + ".png");
   rep.write_csv(csv);
   std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";
+  if (multires) {
+    // Issue #9's speed-up: the single-resolution time for each multi-resolution run's error against the series,
+    // on the single-resolution curve of the same case measured in this run (bench::speed_up: log-log
+    // interpolation, a bound outside the measured range).
+    const std::filesystem::path su = std::filesystem::path(out) / (stem + "_speed_up.csv");
+    std::ofstream f(su);
+    f << "multires,multires_wall_median_s,multires_error_series,single_runs,kind,single_seconds,speed_up\n";
+    for (const bench::run_record& m : rep.records()) {
+      const auto at = m.series.rfind(" 2:1");
+      if (at == std::string::npos) continue;
+      const std::string base = m.series.substr(0, at);
+      std::vector<bench::cost_point> curve;
+      for (const bench::run_record& r : rep.records())
+        if (r.series == base) curve.push_back({r.wall_median, bench::reporter::value(r, "series")});
+      if (curve.empty()) continue;
+      const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, bench::reporter::value(m, "series")});
+      const char* how = s.how == bench::speed_up_result::kind::interpolated ? "interpolated"
+                        : s.how == bench::speed_up_result::kind::at_most  ? "at_most"
+                                                                          : "at_least";
+      std::cout << m.name << ": single resolution needs " << (s.how == bench::speed_up_result::kind::at_most ? "<= " : s.how == bench::speed_up_result::kind::at_least ? ">= " : "")
+                << s.single_seconds << " s for its error; speed-up " << how << " " << s.speed_up << "\n";
+      f << m.name << "," << m.wall_median << "," << bench::reporter::value(m, "series") << "," << curve.size() << ","
+        << how << "," << s.single_seconds << "," << s.speed_up << "\n";
+    }
+    std::cout << "wrote " << su.string() << "\n";
+  }
   if (rep.write_plot(png, "series", std::cout, true)) std::cout << "wrote " << png.string() << "\n";
   return 0;
 } catch (const std::exception& e) {

@@ -203,6 +203,13 @@ class reporter {
     return true;
   }
 
+  /// The error metric `name` of a record (NaN when it has none).
+  static double value(const run_record& r, const std::string& name) {
+    for (const metric& m : r.errors)
+      if (m.name == name) return m.value;
+    return std::nan("");
+  }
+
  private:
   /// Text inside a gnuplot single-quoted string: a quote is written twice (a series named "Tanaka's ..." broke
   /// the script).
@@ -220,11 +227,6 @@ class reporter {
       for (const metric& m : r.errors)
         if (std::find(n.begin(), n.end(), m.name) == n.end()) n.push_back(m.name);
     return n;
-  }
-  static double value(const run_record& r, const std::string& name) {
-    for (const metric& m : r.errors)
-      if (m.name == name) return m.value;
-    return std::nan("");
   }
 
   std::string case_;
