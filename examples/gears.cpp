@@ -40,12 +40,12 @@ int run(int argc, char** argv) {
   cases::gears_config c;
   std::string out = "out/gears";
   double vtk_every = 2e-3;
-  bool geometry_only = false, jacobi = false, umfpack = false;
-  const auto number = [&](int& a, double& v) {
+  bool geometry_only = false, jacobi = false, ilut = false;
+  const auto number = [&](int& a, double& v, bool zero_ok = false) {
     if (a + 1 >= argc) return false;
     char* end = nullptr;
     v = std::strtod(argv[++a], &end);
-    return end != argv[a] && *end == '\0' && v > 0.0;
+    return end != argv[a] && *end == '\0' && (v > 0.0 || (zero_ok && v == 0.0));
   };
   for (int a = 1; a < argc; ++a) {
     bool ok = true;
@@ -60,12 +60,20 @@ int run(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--lmin")) ok = number(a, c.L_min);
     else if (!std::strcmp(argv[a], "--lmax")) ok = number(a, c.L_max);
     else if (!std::strcmp(argv[a], "--rfine")) ok = number(a, c.r_fine);
+    else if (!std::strcmp(argv[a], "--tip-round")) ok = number(a, c.geometry.tip_round);
+    else if (!std::strcmp(argv[a], "--filter")) ok = number(a, c.params.boundary_filter.strength, true);
+    else if (!std::strcmp(argv[a], "--shift-wall-only")) c.params.shift.projection = regularize::penalty_projection::wall_only;
+    else if (!std::strcmp(argv[a], "--two-point")) ok = number(a, c.params.copy_two_point, true);
+    else if (!std::strcmp(argv[a], "--wall-contact")) ok = number(a, c.params.resolution.wall_contact);
+    else if (!std::strcmp(argv[a], "--courant")) ok = number(a, c.params.time.courant);
+    else if (!std::strcmp(argv[a], "--alpha-w")) ok = number(a, c.params.walls.alpha_w);
+    else if (!std::strcmp(argv[a], "--alpha-o")) ok = number(a, c.boundary.alpha_o);
     else if (!std::strcmp(argv[a], "--window")) ok = number(a, c.window);
     else if (!std::strcmp(argv[a], "--vtk-every")) ok = number(a, vtk_every);
     else if (!std::strcmp(argv[a], "--geometry-only")) geometry_only = true;
     else if (!std::strcmp(argv[a], "--no-merge")) c.params.resolution.merge = false;
     else if (!std::strcmp(argv[a], "--jacobi")) jacobi = true;
-    else if (!std::strcmp(argv[a], "--umfpack")) umfpack = true;
+    else if (!std::strcmp(argv[a], "--ilut")) ilut = true;
     else if (!std::strcmp(argv[a], "--ilut-drop")) ok = number(a, c.params.solver.ilut_drop_tolerance);
     else if (!std::strcmp(argv[a], "--cprime")) {  // the largest volume correction per step (eq. 62's c′ bounds)
       double d = 0.0;
@@ -95,7 +103,7 @@ int run(int argc, char** argv) {
               g.a * 1e3, g.y_top * 1e3, g.pockets, g.area * 1e6);
   std::printf("  %s: %lld vertices, %lld segments read back through read_polyline\n", poly.string().c_str(),
               static_cast<long long>(rd.mesh.vertices.cols()), static_cast<long long>(rd.mesh.size()));
-  std::printf("  L*(d) = %.3f mm for d < %.0f mm, doubling every %.0f mm up to %.3f mm; single resolution at L_min would "
+  std::printf("  L*(d) = %.3f mm for d < %.0f mm, x sqrt(2) every %.0f mm up to %.3f mm; single resolution at L_min would "
               "need area / L_min^2 = %.0f particles\n",
               c.L_min * 1e3, c.r_fine * 1e3, c.level_width * 1e3, c.L_max * 1e3, g.area / (c.L_min * c.L_min));
   std::printf("  pressure: %.0f Pa on the right face, %.0f Pa on the left (flow right to left), rho %.0f, mu %g\n",
@@ -116,12 +124,10 @@ int run(int argc, char** argv) {
     }
   };
   const auto r = [&] {
-#ifdef MPSKIT_HAS_SUITESPARSE
-    if (umfpack) return cases::run_gears<cases::gears_umfpack_scene>(c, rd.mesh, g.a, g.y_top, observer);
-#else
-    if (umfpack) fail("--umfpack: this build has no SuiteSparse");
-#endif
     if (jacobi) return cases::run_gears<cases::gears_jacobi_scene>(c, rd.mesh, g.a, g.y_top, observer);
+#ifdef MPSKIT_HAS_SUITESPARSE
+    if (!ilut) return cases::run_gears<cases::gears_umfpack_scene>(c, rd.mesh, g.a, g.y_top, observer);
+#endif
     return cases::run_gears(c, rd.mesh, g.a, g.y_top, observer);
   }();
   progress.finish();
