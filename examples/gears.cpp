@@ -5,9 +5,13 @@
 //   gears.polyline                 the domain (walls, then the two pressure faces; fluid on the left)
 //   gears_walls.vtk                the same segments for ParaView (legacy VTK polydata)
 //   gears.pvd + gears_*.vtu        ParaView series of the particles (every `--vtk-every` s)
-// Usage: gears [--full] [--out DIR] [--t-end T] [--lmin L] [--lmax L] [--vtk-every S] [--geometry-only]
-//   default: L* from 0.2 mm (within 6 mm of the centre) to 0.8 mm (beyond 16 mm), to 0.03 s (a few minutes of one core)
-//   --full:  the paper's 0.4 s with L* from 0.1 mm to 0.8 mm (hours of one core)
+// Usage: gears [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] [--geometry-only]
+//   default: L* from 0.2 mm (d < 7 mm) to 0.8 mm, to 0.05 s (≈ 2 min of one core)
+//   --full:  the paper's 0.4 s with L* from 0.1 mm (d < 4 mm) to 0.8 mm (hours of one core; --wall-limit stops it)
+// Knobs for experiments (docs/gears.md): --lmin L --lmax L --rfine R --tip-round R --root-round R, --two-point B (copy row β),
+// --filter E (one-sided-band filter ε), --courant C, --alpha-w A, --alpha-o A, --cprime D (eq. 62's c′ = 1 ± D),
+// --shift-as-printed (eq. 99 on the fluid pairs too), --no-merge; solvers: UMFPACK when the build has SuiteSparse, else ILUT-BiCGSTAB (--ilut forces
+// it), --jacobi (BiCGSTAB-Jacobi: did not converge at step 0).
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -60,9 +64,12 @@ int run(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--lmin")) ok = number(a, c.L_min);
     else if (!std::strcmp(argv[a], "--lmax")) ok = number(a, c.L_max);
     else if (!std::strcmp(argv[a], "--rfine")) ok = number(a, c.r_fine);
+    else if (!std::strcmp(argv[a], "--wall-limit")) ok = number(a, c.wall_limit);
     else if (!std::strcmp(argv[a], "--tip-round")) ok = number(a, c.geometry.tip_round);
+    else if (!std::strcmp(argv[a], "--root-round")) ok = number(a, c.geometry.root_round);
     else if (!std::strcmp(argv[a], "--filter")) ok = number(a, c.params.boundary_filter.strength, true);
-    else if (!std::strcmp(argv[a], "--shift-wall-only")) c.params.shift.projection = regularize::penalty_projection::wall_only;
+    else if (!std::strcmp(argv[a], "--shift-as-printed"))
+      c.params.shift.projection = regularize::penalty_projection::with_displacement;
     else if (!std::strcmp(argv[a], "--two-point")) ok = number(a, c.params.copy_two_point, true);
     else if (!std::strcmp(argv[a], "--wall-contact")) ok = number(a, c.params.resolution.wall_contact);
     else if (!std::strcmp(argv[a], "--courant")) ok = number(a, c.params.time.courant);
@@ -83,12 +90,12 @@ int run(int argc, char** argv) {
     }
     else ok = false;
     if (!ok) {
-      std::fprintf(stderr, "usage: %s [--full] [--out DIR] [--t-end T] [--lmin L] [--lmax L] [--window S] "
-                           "[--vtk-every S] [--geometry-only]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] "
+                           "[--geometry-only] (more knobs: see the file's header)\n", argv[0]);
       return 2;
     }
   }
-  if (!(c.t_end > c.window)) c.window = 0.25 * c.t_end;
+  if (!(c.t_end > c.window)) c.window = 0.2 * c.t_end;
   fs::create_directories(out);
   const cases::gears_geometry g = cases::make_gears_geometry(c.geometry);
   const fs::path poly = fs::path(out) / "gears.polyline";
@@ -123,6 +130,10 @@ int run(int argc, char** argv) {
       next_vtk += vtk_every;
     }
   };
+  const char* solver = jacobi ? "BiCGSTAB-Jacobi" : "ILUT-BiCGSTAB";
+#ifdef MPSKIT_HAS_SUITESPARSE
+  if (!jacobi && !ilut) solver = "UMFPACK";
+#endif
   const auto r = [&] {
     if (jacobi) return cases::run_gears<cases::gears_jacobi_scene>(c, rd.mesh, g.a, g.y_top, observer);
 #ifdef MPSKIT_HAS_SUITESPARSE
@@ -131,9 +142,9 @@ int run(int argc, char** argv) {
     return cases::run_gears(c, rd.mesh, g.a, g.y_top, observer);
   }();
   progress.finish();
-  std::printf("  run: %s at t = %.4f s of %.4f s, %ld steps, %.1f s wall (PPE iterations mean %.1f, max %ld)\n",
-              r.failed ? "FAILED" : "reached the end", r.t_reached, c.t_end, r.steps, r.wall_seconds,
-              r.ppe_iterations_mean, r.ppe_iterations_max);
+  std::printf("  run (%s): %s at t = %.4f s of %.4f s, %ld steps, %.1f s wall (PPE iterations mean %.1f, max %ld)\n",
+              solver, r.failed ? "FAILED" : r.stopped ? "stopped at the wall-clock limit" : "reached the end", r.t_reached,
+              c.t_end, r.steps, r.wall_seconds, r.ppe_iterations_mean, r.ppe_iterations_max);
   if (r.failed) std::printf("  failure: %s\n", r.failure.c_str());
   std::printf("  fluid particles: start %lld, mean %.0f, end %lld; splits %ld, merges %ld; diameters at the end "
               "[%.3f, %.3f] mm\n",
@@ -147,11 +158,13 @@ int run(int argc, char** argv) {
                 c.window, r.balance, r.q_in, r.q_out, r.dvdt);
   else
     std::printf("  volume balance: not measured (the run did not reach the window)\n");
-  std::printf("  max |u| %.3f m/s at (%.2f, %.2f) mm, t = %.4f s (last window: %.3f m/s)\n", r.u_max,
-              r.u_max_at[0] * 1e3, r.u_max_at[1] * 1e3, r.u_max_t, r.u_max_window);
-  std::printf("  fluid p in [%.0f, %.0f] Pa: min at (%.2f, %.2f) mm, t = %.4f s; max at (%.2f, %.2f) mm, t = %.4f s\n",
-              r.p_min, r.p_max, r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.p_max_at[0] * 1e3,
-              r.p_max_at[1] * 1e3, r.p_max_t);
+  if (r.steps > 0) {
+    std::printf("  max |u| %.3f m/s at (%.2f, %.2f) mm, t = %.4f s (last window: %.3f m/s)\n", r.u_max,
+                r.u_max_at[0] * 1e3, r.u_max_at[1] * 1e3, r.u_max_t, r.u_max_window);
+    std::printf("  fluid p in [%.0f, %.0f] Pa: min at (%.2f, %.2f) mm, t = %.4f s; max at (%.2f, %.2f) mm, t = %.4f s\n",
+                r.p_min, r.p_max, r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.p_max_at[0] * 1e3,
+                r.p_max_at[1] * 1e3, r.p_max_t);
+  }
   std::printf("  output: %s/gears.pvd (%ld files), gears.polyline, gears_walls.vtk\n", out.c_str(),
               static_cast<long>(vtk.files_written()));
   return r.failed ? 1 : 0;
