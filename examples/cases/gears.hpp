@@ -23,6 +23,10 @@
 //    lower end are not part of the fluid (not counted in the area, not filled).
 //  - Pressure: the printed values (100 Pa right, 0 Pa left), so the flow runs right to left; the text's "inflow on
 //    the left" contradicts them and is not followed.
+//  - Target diameter: a √2 staircase in d (gears_config::target); initial particles: a wall row plus a quadtree
+//    (gears_initial_state).
+//  - Scheme: Tanaka's LSMPS with three opt-in stabilisers (gears_config::params), without which every run blew up
+//    beside a tooth within milliseconds (docs/gears.md "Failures and what we tried").
 #include <algorithm>
 #include <array>
 #include <chrono>
