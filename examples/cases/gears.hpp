@@ -543,10 +543,12 @@ struct gears_result {
   std::string failure;  ///< the error's message when the run stopped early
 };
 
-/// Initial particles: a cell-centred quadtree over the window (coarse cells of L_max, halved while L* < β_s h at the
-/// cell's centre, so that no particle wants to split at the start; Tanaka eq. 66's β_s), keeping leaves whose centre
-/// is at least h/2 inside the walls. Volume h² each. Where L* > β_m h = √2 h (eq. 71) the particles merge at the
-/// first steps: the no-event band [β_s, β_m] is narrower than the ladder's factor 2.
+/// Initial particles (ours): a row along every wall (below), then a cell-centred quadtree over the window (coarse cells
+/// of L_max, halved while L* < β_s h at the cell's centre, Tanaka eq. 66's β_s, so that no particle wants to split),
+/// keeping leaves at least h/2 inside the walls and clear of the row; only particles connected to the top-right corner
+/// without crossing a wall are kept. Volume h² each. With gears_config's √2 staircase a particle's size lies inside
+/// the no-event band [1/β_m, 1/β_s] × L* (eqs. 66, 71) except in cells straddling a step (a linear L* ramp gave 343
+/// merges at step 1: that band is narrower than the quadtree's factor 2).
 inline scheme::lsmps_state<2> gears_initial_state(const gears_config& c, const geometry::polygon_mesh<2>& wall_mesh,
                                                   const geometry::polygon_set<2>& walls, double a, double y_top,
                                                   double y_bottom) {
