@@ -37,6 +37,7 @@
 #include <utility>
 #include <vector>
 
+#include "cases/extremes.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/geometry/polyline_io.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
@@ -708,26 +709,7 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
   const auto t_start = std::chrono::steady_clock::now();
   const auto observe = [&](const auto& sm) {
     const auto& st = sim.state();
-    const auto& P = st.template get<field::pressure>();
-    for (index_t i = 0; i < st.n_real(); ++i) {
-      if (P[i] < r.p_min) {
-        r.p_min = P[i];
-        r.p_min_at = st.x().col(i);
-        r.p_min_t = sim.time();
-      }
-      if (P[i] > r.p_max) {
-        r.p_max = P[i];
-        r.p_max_at = st.x().col(i);
-        r.p_max_t = sim.time();
-      }
-      const double u = st.u().col(i).norm();
-      if (u > r.u_max) {
-        r.u_max = u;
-        r.u_max_at = st.x().col(i);
-        r.u_max_t = sim.time();
-      }
-      if (in_window) r.u_max_window = std::max(r.u_max_window, u);
-    }
+    track_extremes(r, st, sim.time(), in_window);
     n_sum += static_cast<double>(st.n_real());
     ++nsteps;
     if (in_window) {

@@ -10,6 +10,7 @@
 #include <functional>
 #include <vector>
 
+#include "cases/extremes.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
@@ -156,25 +157,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   r.p_min = 1e300;
   r.p_max = -1e300;
   bool in_window = false;  // the averaging window: |u| also goes to u_max_window
-  const auto extremes = [&](const auto&) {
-    const auto& st = sim.state();
-    const auto& P = st.template get<field::pressure>();
-    for (index_t i = 0; i < st.n_real(); ++i) {
-      if (P[i] < r.p_min) {
-        r.p_min = P[i];
-        r.p_min_at = st.x().col(i);
-        r.p_min_t = sim.time();
-      }
-      if (P[i] > r.p_max) {
-        r.p_max = P[i];
-        r.p_max_at = st.x().col(i);
-        r.p_max_t = sim.time();
-      }
-      const double u = st.u().col(i).norm();
-      r.u_max = std::max(r.u_max, u);
-      if (in_window) r.u_max_window = std::max(r.u_max_window, u);
-    }
-  };
+  const auto extremes = [&](const auto&) { track_extremes(r, sim.state(), sim.time(), in_window); };
   sim.run_until(c.t_end - c.window, extremes);
   v_begin = volume();
   t_begin = sim.time();
