@@ -37,7 +37,7 @@
 #include <utility>
 #include <vector>
 
-#include "cases/extremes.hpp"
+#include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/geometry/polyline_io.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
@@ -685,19 +685,8 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
   simulation<Scene> sim(p, gears_initial_state(c, wm_copy, walls, a, y_top, y_bottom), &walls, &pb);
   gears_result r;
   r.particles = sim.state().n_real();
-  const auto volume = [&] {
-    const auto& st = sim.state();
-    return st.template get<field::volume>().head(st.n_real()).sum();
-  };
-  // Velocity flux through a vertical slab of width w = 2 L_max at x0: Σ V u_x / w (as the multi-diameter channel).
-  const auto flux = [&](double x0) {
-    const auto& st = sim.state();
-    const auto& V = st.template get<field::volume>();
-    double q = 0.0;
-    for (index_t i = 0; i < st.n_real(); ++i)
-      if (std::abs(st.x()(0, i) - x0) < c.L_max) q += V[i] * st.u()(0, i);
-    return q / (2.0 * c.L_max);
-  };
+  const auto volume = [&] { return fluid_volume(sim.state()); };
+  const auto flux = [&](double x0) { return slab_flux(sim.state(), x0, c.L_max); };
   const double V0 = volume();
   r.p_min = 1e300;
   r.p_max = -1e300;

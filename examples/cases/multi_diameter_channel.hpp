@@ -10,7 +10,7 @@
 #include <functional>
 #include <vector>
 
-#include "cases/extremes.hpp"
+#include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
@@ -137,19 +137,8 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   simulation<Scene> sim(p, std::move(s0), &walls, &pb);
   multi_diameter_result r;
   r.particles = sim.state().n_real();
-  const auto volume = [&] {
-    const auto& st = sim.state();
-    return st.template get<field::volume>().head(st.n_real()).sum();
-  };
-  // Velocity flux through a slab of width w = 2 L at x: Σ V u_x / w over the particles in it.
-  const auto flux = [&](double x0) {
-    const auto& st = sim.state();
-    const auto& V = st.template get<field::volume>();
-    double q = 0.0;
-    for (index_t i = 0; i < st.n_real(); ++i)
-      if (std::abs(st.x()(0, i) - x0) < L) q += V[i] * st.u()(0, i);
-    return q / (2.0 * L);
-  };
+  const auto volume = [&] { return fluid_volume(sim.state()); };
+  const auto flux = [&](double x0) { return slab_flux(sim.state(), x0, L); };
   const double V0 = volume();
   double qin = 0.0, qout = 0.0, v_begin = 0.0, t_begin = 0.0;
   long samples = 0;

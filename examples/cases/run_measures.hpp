@@ -1,10 +1,28 @@
 #pragma once
-// Extreme fluid pressures and speeds over a run, with where and when (the channel and gear cases' summaries).
+// What the channel and gear runners measure during a run: the fluid volume, the velocity flux through a slab,
+// and the extreme fluid pressures and speeds with where and when.
 #include <algorithm>
+#include <cmath>
 
 #include "mpskit/core/fields.hpp"
 
 namespace mpskit::cases {
+
+/// Σ V over the real particles (m² in 2D).
+template <class State>
+double fluid_volume(const State& st) {
+  return st.template get<field::volume>().head(st.n_real()).sum();
+}
+
+/// Velocity flux through the slab |x_0 − x0| < h across axis 0: Σ V u_x / (2 h) over the real particles in it.
+template <class State>
+double slab_flux(const State& st, double x0, double h) {
+  const auto& V = st.template get<field::volume>();
+  double q = 0.0;
+  for (index_t i = 0; i < st.n_real(); ++i)
+    if (std::abs(st.x()(0, i) - x0) < h) q += V[i] * st.u()(0, i);
+  return q / (2.0 * h);
+}
 
 /// Updates r.p_min / r.p_max (and their _at position and _t time), r.u_max (and u_max_at / u_max_t when the
 /// result has them) and, inside the averaging window, r.u_max_window, from the real particles of `st` at time t.
