@@ -733,16 +733,9 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
     r.balance = std::abs(r.q_in - r.q_out - r.dvdt) / std::abs(r.q_in);
   }
   const auto& k = sim.counters();
-  r.steps = k.steps;
-  r.inflow = k.inflow;
-  r.outflow = k.outflow;
-  r.outflow_behind = k.outflow_behind;
-  r.guarded = k.guarded;
-  r.splits = k.splits;
-  r.merges = k.merges;
+  record_channel_counts(r, k, V0, volume());
   r.ppe_iterations_max = k.ppe_iterations_max;
   r.ppe_iterations_mean = k.steps > 0 ? static_cast<double>(k.ppe_iterations) / static_cast<double>(k.steps) : 0.0;
-  r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
   r.particles_mean = nsteps > 0 ? n_sum / static_cast<double>(nsteps) : static_cast<double>(r.particles);
   const auto& st = sim.state();
   r.particles_end = st.n_real();

@@ -163,14 +163,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   r.dvdt = (volume() - v_begin) / (sim.time() - t_begin);
   r.balance = std::abs(r.q_in - r.q_out - r.dvdt) / std::abs(r.q_in);
   const auto& k = sim.counters();
-  r.steps = k.steps;
-  r.inflow = k.inflow;
-  r.outflow = k.outflow;
-  r.outflow_behind = k.outflow_behind;
-  r.guarded = k.guarded;
-  r.splits = k.splits;
-  r.merges = k.merges;
-  r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
+  record_channel_counts(r, k, V0, volume());
   const auto& st = sim.state();
   r.particles_end = st.n_real();
   const auto& Vend = st.template get<field::volume>();

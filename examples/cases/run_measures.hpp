@@ -53,4 +53,19 @@ void track_extremes(Result& r, const State& st, double t, bool in_window) {
   }
 }
 
+/// The channel runners' event counts from the stepper's counters k: steps, pressure-boundary creations and
+/// removals (and removals behind a face), guard activations, splits and merges; and the volume ledger's error
+/// |V_end − V0 − (inflow − outflow volume)| / V0 at volume V_end.
+template <class Result, class Counters>
+void record_channel_counts(Result& r, const Counters& k, double V0, double V_end) {
+  r.steps = k.steps;
+  r.inflow = k.inflow;
+  r.outflow = k.outflow;
+  r.outflow_behind = k.outflow_behind;
+  r.guarded = k.guarded;
+  r.splits = k.splits;
+  r.merges = k.merges;
+  r.ledger_error = std::abs(V_end - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
+}
+
 }  // namespace mpskit::cases
