@@ -733,15 +733,10 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
     r.balance = std::abs(r.q_in - r.q_out - r.dvdt) / std::abs(r.q_in);
   }
   const auto& k = sim.counters();
-  record_channel_counts(r, k, V0, volume());
+  record_channel_end(r, k, sim.state(), V0);
   r.ppe_iterations_max = k.ppe_iterations_max;
   r.ppe_iterations_mean = k.steps > 0 ? static_cast<double>(k.ppe_iterations) / static_cast<double>(k.steps) : 0.0;
   r.particles_mean = nsteps > 0 ? n_sum / static_cast<double>(nsteps) : static_cast<double>(r.particles);
-  const auto& st = sim.state();
-  r.particles_end = st.n_real();
-  const auto& Vend = st.template get<field::volume>();
-  r.L_min = std::sqrt(Vend.head(st.n_real()).minCoeff());
-  r.L_max = std::sqrt(Vend.head(st.n_real()).maxCoeff());
   return r;
 }
 

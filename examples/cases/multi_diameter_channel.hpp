@@ -163,12 +163,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   r.dvdt = (volume() - v_begin) / (sim.time() - t_begin);
   r.balance = std::abs(r.q_in - r.q_out - r.dvdt) / std::abs(r.q_in);
   const auto& k = sim.counters();
-  record_channel_counts(r, k, V0, volume());
-  const auto& st = sim.state();
-  r.particles_end = st.n_real();
-  const auto& Vend = st.template get<field::volume>();
-  r.L_min = std::sqrt(Vend.head(st.n_real()).minCoeff());
-  r.L_max = std::sqrt(Vend.head(st.n_real()).maxCoeff());
+  record_channel_end(r, k, sim.state(), V0);
   return r;
 }
 

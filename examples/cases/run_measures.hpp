@@ -53,11 +53,14 @@ void track_extremes(Result& r, const State& st, double t, bool in_window) {
   }
 }
 
-/// The channel runners' event counts from the stepper's counters k: steps, pressure-boundary creations and
-/// removals (and removals behind a face), guard activations, splits and merges; and the volume ledger's error
-/// |V_end − V0 − (inflow − outflow volume)| / V0 at volume V_end.
-template <class Result, class Counters>
-void record_channel_counts(Result& r, const Counters& k, double V0, double V_end) {
+/// The channel runners' end of run: event counts from the stepper's counters k (steps, pressure-boundary
+/// creations and removals, removals behind a face, guard activations, splits, merges), the volume ledger's error
+/// |V_end − V0 − (inflow − outflow volume)| / V0, and the final particle count and smallest / largest diameter
+/// (V^(1/2), 2D) of the real particles of st.
+template <class Result, class Counters, class State>
+void record_channel_end(Result& r, const Counters& k, const State& st, double V0) {
+  const auto V = st.template get<field::volume>().head(st.n_real());
+  const double V_end = V.sum();
   r.steps = k.steps;
   r.inflow = k.inflow;
   r.outflow = k.outflow;
@@ -66,6 +69,9 @@ void record_channel_counts(Result& r, const Counters& k, double V0, double V_end
   r.splits = k.splits;
   r.merges = k.merges;
   r.ledger_error = std::abs(V_end - V0 - (k.inflow_volume - k.outflow_volume)) / V0;
+  r.particles_end = st.n_real();
+  r.L_min = std::sqrt(V.minCoeff());
+  r.L_max = std::sqrt(V.maxCoeff());
 }
 
 }  // namespace mpskit::cases

@@ -13,8 +13,10 @@
 // 5 mm above the block's top centre.
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "cases/polygon_tank.hpp"
 #include "mpskit/core/dimension.hpp"
@@ -134,19 +136,12 @@ inline tanaka_dam_break_config tanaka_obstacle_config(double L = 0.001) {
 inline geometry::polygon_mesh<2> tanaka_dam_break_walls(const tanaka_dam_break_config& c) {
   if (!c.has_obstacle()) return geometry::tank(vec<2>(c.vessel_left, 0.0), vec<2>(c.vessel_right, c.vessel_height));
   const double a = c.obstacle_centre - 0.5 * c.obstacle_width, b = c.obstacle_centre + 0.5 * c.obstacle_width;
-  geometry::polygon_mesh<2> m;
-  m.vertices.resize(2, 8);
-  m.vertices.col(0) = vec<2>(c.vessel_left, c.vessel_height);
-  m.vertices.col(1) = vec<2>(c.vessel_left, 0.0);
-  m.vertices.col(2) = vec<2>(a, 0.0);
-  m.vertices.col(3) = vec<2>(a, c.obstacle_height);
-  m.vertices.col(4) = vec<2>(b, c.obstacle_height);
-  m.vertices.col(5) = vec<2>(b, 0.0);
-  m.vertices.col(6) = vec<2>(c.vessel_right, 0.0);
-  m.vertices.col(7) = vec<2>(c.vessel_right, c.vessel_height);
-  m.elements.resize(2, 7);
-  for (index_t k = 0; k < 7; ++k) m.elements.col(k) << k, k + 1;
-  return m;
+  const std::vector<vec<2>> v{{c.vessel_left, c.vessel_height}, {c.vessel_left, 0.0}, {a, 0.0},
+                               {a, c.obstacle_height},        {b, c.obstacle_height}, {b, 0.0},
+                               {c.vessel_right, 0.0},          {c.vessel_right, c.vessel_height}};
+  std::vector<std::array<index_t, 2>> el;
+  for (index_t k = 0; k + 1 < static_cast<index_t>(v.size()); ++k) el.push_back({k, k + 1});
+  return geometry::detail::make_mesh<2>(v, el);  // an open chain, as geometry::tank builds its own
 }
 
 /// Builds the vessel (tanaka_dam_break_walls) and fills the column with the lattice vessel_left + (k + ½) L, (m + ½) L
