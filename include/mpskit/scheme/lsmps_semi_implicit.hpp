@@ -131,6 +131,15 @@ enum class pressure_operator {
                        ///< literally (an exact discrete projection; needs a direct solver, see the docs)
 };
 
+/// What the PPE does with a fluid row whose operator has a non-negative diagonal (docs/lsmps_scheme.md,
+/// deviation 10). Such a row is not a discrete Laplacian at its particle: it appears at sparse particles
+/// the surface test did not flag (measured in Tanaka's dam break: c = 0.35–0.7 at the surge toe and in
+/// splashes), and with it the matrix is singular or indefinite there and the iterative solve diverges.
+enum class wrong_sign_row {
+  dirichlet,  ///< the particle becomes a free-surface particle, p = 0 (counted in counters().wrong_sign_rows)
+  keep        ///< solve with the row as it is (Tanaka's scheme read literally)
+};
+
 /// Which fluid velocity u′_w enters a copy's wall condition (eq. 83).
 enum class copy_neumann_velocity {
   average,  ///< w-weighted average of the fluid neighbours' u′ (Tanaka §4.5.1's recommendation)
@@ -167,6 +176,7 @@ struct lsmps_params {
   /// from T ≈ 1.35). 0 gives the parent-gradient row alone. Accepted: [0, inf).
   double copy_two_point = 0.0;
   copy_velocity_in_source copy_velocity = copy_velocity_in_source::extrapolated;  ///< see the enum
+  wrong_sign_row wrong_sign_rows = wrong_sign_row::dirichlet;  ///< fluid rows with a diagonal ≥ 0 (see the enum)
   pressure_operator pressure = pressure_operator::second_derivatives;  ///< the det F rows' operator (see the enum)
   negative_pressure negative = negative_pressure::keep;  ///< LSMPS needs no clamping (Tanaka §4.7)
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
@@ -215,6 +225,7 @@ struct lsmps_counters {
   long shift_limited = 0;          ///< shifts limited to α_S L (eq. 100)
   long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
+  long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
   long list_builds = 0;            ///< neighbour-list builds
   long reorders = 0;               ///< cell reorders
   long filtered = 0;               ///< particle-steps filtered in the one-sided band (boundary_filter)
@@ -322,6 +333,9 @@ class lsmps_semi_implicit {
   const op_type& op() const { return op_; }               ///< operators of the last step
   const search::neighbour_list<D>& neighbours() const { return nl_; }  ///< list of the last step
   const ppe::solve_report& last_solve() const { return last_solve_; }  ///< last PPE solve
+  /// The last PPE matrix (row r is particle ppe_rows()[r]; columns in the same order).
+  const ppe::matrix& ppe_matrix() const { return A_; }
+  const std::vector<index_t>& ppe_rows() const { return rows_; }  ///< the particle of each PPE row
   const boundary::pressure_flux& last_flux() const { return last_flux_; }  ///< pressure-boundary fluxes of the last step
   const Eigen::VectorXd& packing_ratio() const { return c_pack_; }    ///< c of the last step (real + copies)
   const points<D>& normals() const { return normal_; }                ///< normals of the last step
@@ -746,127 +760,134 @@ class lsmps_semi_implicit {
     const points<D>& x = s_.x();
     auto& pres = s_.template get<field::pressure>();
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
-    unk_.assign(static_cast<std::size_t>(nt), npos);
-    rows_.clear();
-    for (index_t i = 0; i < nt; ++i) {
-      // Unknowns: non-surface participating particles; with the parent-gradient wall row also the copies of
-      // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
-      // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step).
-      const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
-      if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
-      if (participates(i) && (!surface_[static_cast<std::size_t>(i)] || copy_unknown)) {
-        unk_[static_cast<std::size_t>(i)] = static_cast<index_t>(rows_.size());
-        rows_.push_back(i);
+    // The rows are built twice when a fluid row's operator has a non-negative diagonal (wrong_sign_rows below):
+    // its particle becomes a Dirichlet p = 0 row and the unknowns, the c′ = 1 band and the right-hand sides are
+    // made again (the rows' coefficients do not depend on which particles are unknowns, so one repeat suffices).
+    index_t m = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+      unk_.assign(static_cast<std::size_t>(nt), npos);
+      rows_.clear();
+      for (index_t i = 0; i < nt; ++i) {
+        // Unknowns: non-surface participating particles; with the parent-gradient wall row also the copies of
+        // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
+        // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step).
+        const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
+        if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
+        if (participates(i) && (!surface_[static_cast<std::size_t>(i)] || copy_unknown)) {
+          unk_[static_cast<std::size_t>(i)] = static_cast<index_t>(rows_.size());
+          rows_.push_back(i);
+        }
       }
-    }
-    for (index_t i = 0; i < nt; ++i)
-      if (unk_[static_cast<std::size_t>(i)] == npos) pres[i] = 0.0;
-    if constexpr (has_pressure_boundary) pres.segment(nc_, nt - nc_) = pb_->pressures();
-    const index_t m = static_cast<index_t>(rows_.size());
-    one_sided_.assign(static_cast<std::size_t>(n), 0);  // stays 0 when there is nothing to solve
-    if (m == 0) return;
+      for (index_t i = 0; i < nt; ++i)
+        if (unk_[static_cast<std::size_t>(i)] == npos) pres[i] = 0.0;
+      if constexpr (has_pressure_boundary) pres.segment(nc_, nt - nc_) = pb_->pressures();
+      m = static_cast<index_t>(rows_.size());
+      one_sided_.assign(static_cast<std::size_t>(n), 0);  // stays 0 when there is nothing to solve
+      if (m == 0) return;
 
-    // Near the free surface the packing ratio measures the void above, not a compression: the row below
-    // the surface of a lattice at rest has c = 0.90 < c_min, so eq. 62 compressed it every step (measured:
-    // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle closer
-    // than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
-    // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on the
-    // face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq. 62
-    // pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at t = 0.02 s).
-    // The same next to a wall (a deviation, docs/lsmps_scheme.md): the copies on the wall bias c (1.08–1.20
-    // within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at rest (3e-2 √(gH)
-    // within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to −14 kPa.
-    // The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface particle, or one
-    // with a copy, a pressure-boundary or a surface particle among its neighbours, or (multi-resolution) a
-    // neighbour whose diameter differs by more than boundary_filter.size_ratio: a mixed-size stencil is as
-    // asymmetric as a one-sided one (measured, docs/resolution.md: a refined disc in a tank at rest, 2:1, grew
-    // to 0.5 √(gH) by 4 √(H/g) without it and stayed at 1.3e-4 with it).
-    fixed_volume_.assign(static_cast<std::size_t>(nt), 0);
-    const double rs = p_.boundary_filter.size_ratio;
-    const bool mixed_sizes = n > 0 && L_.head(n).maxCoeff() > rs * L_.head(n).minCoeff();
-    if (has_surface || has_pressure_boundary || has_walls || mixed_sizes) {
-      for_each_particle(exec::par{}, n, [&](index_t i) {
-        const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
-        bool near = false, band = surface_[static_cast<std::size_t>(i)] != 0;
-        nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
-          // a copy (of a participating parent), a pressure-boundary particle, a surface particle
-          const bool open = (j >= n && participates(j)) || (j < n && surface_[static_cast<std::size_t>(j)]);
-          if (open && r2 < reach * reach) near = true;
-          band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0 ||
-                 (mixed_sizes && participates(j) && (L_[j] > rs * L_[i] || L_[i] > rs * L_[j]));
+      // Near the free surface the packing ratio measures the void above, not a compression: the row below
+      // the surface of a lattice at rest has c = 0.90 < c_min, so eq. 62 compressed it every step (measured:
+      // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle closer
+      // than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
+      // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on the
+      // face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq. 62
+      // pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at t = 0.02 s).
+      // The same next to a wall (a deviation, docs/lsmps_scheme.md): the copies on the wall bias c (1.08–1.20
+      // within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at rest (3e-2 √(gH)
+      // within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to −14 kPa.
+      // The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface particle, or one
+      // with a copy, a pressure-boundary or a surface particle among its neighbours, or (multi-resolution) a
+      // neighbour whose diameter differs by more than boundary_filter.size_ratio: a mixed-size stencil is as
+      // asymmetric as a one-sided one (measured, docs/resolution.md: a refined disc in a tank at rest, 2:1, grew
+      // to 0.5 √(gH) by 4 √(H/g) without it and stayed at 1.3e-4 with it).
+      fixed_volume_.assign(static_cast<std::size_t>(nt), 0);
+      const double rs = p_.boundary_filter.size_ratio;
+      const bool mixed_sizes = n > 0 && L_.head(n).maxCoeff() > rs * L_.head(n).minCoeff();
+      if (has_surface || has_pressure_boundary || has_walls || mixed_sizes) {
+        for_each_particle(exec::par{}, n, [&](index_t i) {
+          const double reach = p_.op.re_ratio * L_[i] - 0.5 * L_[i];
+          bool near = false, band = surface_[static_cast<std::size_t>(i)] != 0;
+          nl_.for_each_neighbour(x, i, support(), [&](index_t j, const vec<D>&, double r2) {
+            // a copy (of a participating parent), a pressure-boundary particle, a surface particle
+            const bool open = (j >= n && participates(j)) || (j < n && surface_[static_cast<std::size_t>(j)]);
+            if (open && r2 < reach * reach) near = true;
+            band = band || j >= n || surface_[static_cast<std::size_t>(j)] != 0 ||
+                   (mixed_sizes && participates(j) && (L_[j] > rs * L_[i] || L_[i] > rs * L_[j]));
+          });
+          fixed_volume_[static_cast<std::size_t>(i)] = near;
+          one_sided_[static_cast<std::size_t>(i)] = band;
         });
-        fixed_volume_[static_cast<std::size_t>(i)] = near;
-        one_sided_[static_cast<std::size_t>(i)] = band;
-      });
-    }
-    // ∇u′ at every row: copies carry the extrapolated u′ (default) or the wall velocity.
-    for (int a = 0; a < D; ++a) {
-      comp_[a] = ut_.row(a).transpose();
-      if (p_.copy_velocity == copy_velocity_in_source::wall)
-        for (index_t k = n; k < nc_; ++k) comp_[a][k] = s_.u()(a, k);
-    }
-    // Neumann data at copies: ∂p/∂n = ρ (u′_w − u_wall)·n / Δt (eq. 83; n toward the fluid).
-    dpdn_.setZero(nt);
-    for (index_t k = n; k < nc_; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
-
-    // Each row as (particle column, coefficient) entries, sorted by particle, plus its right-hand side.
-    // Each row in a reused row_entries (capacity kept across steps), merged and sorted by particle.
-    if (static_cast<index_t>(row_buf_.size()) < m) row_buf_.resize(static_cast<std::size_t>(m));
-    b_.resize(m);
-    dirichlet_.assign(static_cast<std::size_t>(m), 0);
-    for_each_particle(exec::par{}, m, [&](index_t r) {
-      const index_t i = rows_[static_cast<std::size_t>(r)];
-      op::row_entries& row = row_buf_[static_cast<std::size_t>(r)];
-      if (i >= n && p_.copy_row == copy_row_kind::parent_gradient) {
-        // The copy's unknown makes its parent's corrected normal velocity vanish (a deviation, docs/solver.md):
-        // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
-        const index_t ip = parent(i);
-        row.reset(ip);
-        op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
-                      participates, row);
-        b_[r] = dpdn_[i] / p_.rho - row.constant();
-        if (p_.copy_two_point > 0.0) {
-          // The two-point form of eq. 83 between the copy and its parent (copy_two_point; a parent closer
-          // than 1e-3 L to the wall has no usable distance and keeps the gradient row alone).
-          const double d = (x.col(ip) - x.col(i)).dot(normal_.col(i));
-          if (d > 1e-3 * L_[ip]) {
-            const double a = p_.copy_two_point / (p_.rho * d);
-            row.add(ip, a);
-            row.add(i, -a);
-            b_[r] += p_.copy_two_point * dpdn_[i] / p_.rho;
-          }
-        }
-      } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
-        // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
-        row.reset(i);
-        op_.build_row(x, nl_, i, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
-                      participates, row);
-        b_[r] = dpdn_[i] / p_.rho - row.constant();
-      } else {
-        mat<D> A = mat<D>::Identity();
-        for (int a = 0; a < D; ++a) A.row(a) += dt * op_.gradient(x, nl_, i, comp_[a], participates).transpose();
-        row.reset(i);
-        if (p_.pressure == pressure_operator::nested_gradient) {
-          build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);
-        } else {
-          const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
-          op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
-        }
-        // Copies have no volume correction of their own; nor do particles near a free surface, a wall or a
-        // pressure boundary (c′ = 1, above).
-        const double c_i = i < n && !fixed_volume_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
-        b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
       }
-      row.merge();
-      bool dir = false;
-      for_each_entry(row, i, [&](index_t j, double a) {
-        if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) {
-          dir = true;           // a known neighbour: surface (p = 0) or pressure boundary (p = P_b)
-          b_[r] -= a * pres[j];  // its value moves to the right-hand side
+      // ∇u′ at every row: copies carry the extrapolated u′ (default) or the wall velocity.
+      for (int a = 0; a < D; ++a) {
+        comp_[a] = ut_.row(a).transpose();
+        if (p_.copy_velocity == copy_velocity_in_source::wall)
+          for (index_t k = n; k < nc_; ++k) comp_[a][k] = s_.u()(a, k);
+      }
+      // Neumann data at copies: ∂p/∂n = ρ (u′_w − u_wall)·n / Δt (eq. 83; n toward the fluid).
+      dpdn_.setZero(nt);
+      for (index_t k = n; k < nc_; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
+
+      // Each row as (particle column, coefficient) entries, sorted by particle, plus its right-hand side.
+      // Each row in a reused row_entries (capacity kept across steps), merged and sorted by particle.
+      if (static_cast<index_t>(row_buf_.size()) < m) row_buf_.resize(static_cast<std::size_t>(m));
+      b_.resize(m);
+      dirichlet_.assign(static_cast<std::size_t>(m), 0);
+      for_each_particle(exec::par{}, m, [&](index_t r) {
+        const index_t i = rows_[static_cast<std::size_t>(r)];
+        op::row_entries& row = row_buf_[static_cast<std::size_t>(r)];
+        if (i >= n && p_.copy_row == copy_row_kind::parent_gradient) {
+          // The copy's unknown makes its parent's corrected normal velocity vanish (a deviation, docs/solver.md):
+          // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
+          const index_t ip = parent(i);
+          row.reset(ip);
+          op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+                        participates, row);
+          b_[r] = dpdn_[i] / p_.rho - row.constant();
+          if (p_.copy_two_point > 0.0) {
+            // The two-point form of eq. 83 between the copy and its parent (copy_two_point; a parent closer
+            // than 1e-3 L to the wall has no usable distance and keeps the gradient row alone).
+            const double d = (x.col(ip) - x.col(i)).dot(normal_.col(i));
+            if (d > 1e-3 * L_[ip]) {
+              const double a = p_.copy_two_point / (p_.rho * d);
+              row.add(ip, a);
+              row.add(i, -a);
+              b_[r] += p_.copy_two_point * dpdn_[i] / p_.rho;
+            }
+          }
+        } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
+          // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
+          row.reset(i);
+          op_.build_row(x, nl_, i, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+                        participates, row);
+          b_[r] = dpdn_[i] / p_.rho - row.constant();
+        } else {
+          mat<D> A = mat<D>::Identity();
+          for (int a = 0; a < D; ++a) A.row(a) += dt * op_.gradient(x, nl_, i, comp_[a], participates).transpose();
+          row.reset(i);
+          if (p_.pressure == pressure_operator::nested_gradient) {
+            build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);
+          } else {
+            const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
+            op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
+          }
+          // Copies have no volume correction of their own; nor do particles near a free surface, a wall or a
+          // pressure boundary (c′ = 1, above).
+          const double c_i = i < n && !fixed_volume_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
+          b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
         }
+        row.merge();
+        bool dir = false;
+        for_each_entry(row, i, [&](index_t j, double a) {
+          if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) {
+            dir = true;           // a known neighbour: surface (p = 0) or pressure boundary (p = P_b)
+            b_[r] -= a * pres[j];  // its value moves to the right-hand side
+          }
+        });
+        dirichlet_[static_cast<std::size_t>(r)] = dir;
       });
-      dirichlet_[static_cast<std::size_t>(r)] = dir;
-    });
+      if (pass > 0 || p_.wrong_sign_rows != wrong_sign_row::dirichlet || !demote_wrong_sign_rows(m)) break;
+    }
     // CSR: unknown columns kept (particle order = unknown order), known (surface, p = 0) dropped.
     std::vector<std::ptrdiff_t> outer(static_cast<std::size_t>(m + 1), 0);
     for (index_t r = 0; r < m; ++r) {
@@ -906,6 +927,29 @@ class lsmps_semi_implicit {
       }
       pres[rows_[static_cast<std::size_t>(r)]] = v;
     }
+  }
+
+  /// Fluid rows (not copies, not boundary particles) of the m built rows whose diagonal is ≥ 0 (or not a
+  /// number): their particles are flagged free surface (p = 0), as are their copies, as the surface test
+  /// would have done. Returns true when any was found (the rows are then built again).
+  bool demote_wrong_sign_rows(index_t m) {
+    const index_t n = s_.n_real();
+    long found = 0;
+    for (index_t r = 0; r < m; ++r) {
+      const index_t i = rows_[static_cast<std::size_t>(r)];
+      if (i >= n || row_buf_[static_cast<std::size_t>(r)].diagonal() < 0.0) continue;
+      surface_[static_cast<std::size_t>(i)] = 1;
+      s_.flags()[static_cast<std::size_t>(i)] |= flag::surface;
+      ++found;
+    }
+    if (found == 0) return false;
+    for (index_t k = n; k < nc_; ++k)
+      if (surface_[static_cast<std::size_t>(parent(k))]) {
+        surface_[static_cast<std::size_t>(k)] = 1;
+        s_.flags()[static_cast<std::size_t>(k)] |= flag::surface;
+      }
+    c_.wrong_sign_rows += found;
+    return true;
   }
 
   /// Row i of (1/ρ) Σ_ab cof(A)_ab ∂_b⟨∇_a p⟩ with S = cof(A)/ρ: the LSMPS-A gradient (eq. 41) of the LSMPS-A
