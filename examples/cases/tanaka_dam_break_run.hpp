@@ -21,7 +21,11 @@ struct tanaka_dam_break_result {
   double p_min = 0.0;           ///< lowest fluid pressure over all steps (Pa)
   double p_min_copies = 0.0;    ///< lowest imaginary-copy pressure (auxiliary unknowns of the wall rows, Pa)
   double rho_g_h = 0.0;         ///< ρ g H of the column (Pa)
-  index_t particles = 0;        ///< fluid particles
+  index_t particles = 0;        ///< fluid particles at the start
+  index_t particles_end = 0;    ///< fluid particles at the end (differs with splitting and merging)
+  double L_min = 0.0;           ///< smallest particle diameter at the end (m; sqrt of the 2D volume)
+  long splits = 0, merges = 0;  ///< resolution events (Scene::resolution = split_merge)
+  double volume_change = 0.0;   ///< ΣV at the end / ΣV at the start − 1 (splits and merges conserve it)
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
@@ -48,6 +52,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.rho_g_h = c.rho * c.g * c.column_height;
   r.particles = db.size();
   double next = 0.0;
+  const auto volume = [&]() { return sim.state().template get<field::volume>().head(sim.state().n_real()).sum(); };
+  const double V0 = volume();
   const auto t0 = std::chrono::steady_clock::now();
   try {
     while (db.t_star(sim.time()) < T_end) {
@@ -60,7 +66,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       if (T < next) continue;
       next += 0.05;
       const auto& fl = sim.state().flags();
-      const Eigen::VectorXd d = Eigen::VectorXd::Constant(n, c.L);
+      // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine one.
+      const Eigen::VectorXd d = sim.state().template get<field::volume>().head(n).cwiseSqrt();
       r.T.push_back(T);
       r.Z.push_back(db.front_star(sim.state().x(), d, n,
                                   [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; }));
@@ -73,6 +80,11 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   }
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.steps = sim.counters().steps;
+  r.particles_end = sim.state().n_real();
+  r.L_min = std::sqrt(sim.state().template get<field::volume>().head(r.particles_end).minCoeff());
+  r.splits = sim.counters().splits;
+  r.merges = sim.counters().merges;
+  r.volume_change = volume() / V0 - 1.0;
   r.guarded = sim.counters().guarded;
   r.filtered = sim.counters().filtered;
   r.ppe_iterations = sim.counters().ppe_iterations;
