@@ -39,6 +39,8 @@
 
 #include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
+#include "mpskit/geometry/generators.hpp"
+#include "mpskit/geometry/polygon_set.hpp"
 #include "mpskit/geometry/polyline_io.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
 #ifdef MPSKIT_HAS_SUITESPARSE
@@ -187,26 +189,15 @@ inline pts gear_outline(int N, double r_tip, double depth, double alpha, double 
   return out;
 }
 
-inline double point_segment(const vec<2>& x, const vec<2>& a, const vec<2>& b) {
-  const vec<2> d = b - a;
-  const double u = std::clamp((x - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
-  return (x - (a + u * d)).norm();
-}
-
-/// Smallest distance between two closed outlines, over the vertices within `box` of the origin.
+/// Smallest distance between two closed outlines, from the vertices of each within `box` of the origin to the
+/// other outline (geometry::polygon_set's closest-point query).
 inline double outline_distance(const pts& A, const pts& B, double box) {
   double best = 1e300;
   const auto near = [&](const vec<2>& x) { return std::abs(x[0]) < box && std::abs(x[1]) < box; };
   const auto one_way = [&](const pts& P, const pts& Q) {
-    for (const vec<2>& x : P) {
-      if (!near(x)) continue;
-      for (std::size_t q = 0; q < Q.size(); ++q) {
-        const vec<2>& a = Q[q];
-        const vec<2>& b = Q[(q + 1) % Q.size()];
-        if (!near(a) && !near(b)) continue;
-        best = std::min(best, point_segment(x, a, b));
-      }
-    }
+    const geometry::polygon_set<2> q(geometry::detail::closed_polygon(Q, geometry::fluid_side::outside));
+    for (const vec<2>& x : P)
+      if (near(x)) best = std::min(best, q.closest(x).distance);
   };
   one_way(A, B);
   one_way(B, A);
