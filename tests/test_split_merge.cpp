@@ -1378,11 +1378,20 @@ TEST_SUITE("dam_break_multires") {
     };
     p.resolution.wall_contact = 0.75;
     const auto multi = cases::run_tanaka_dam_break<tanaka_multires>(c, T_end, p);
+    // Samples are taken at the first step at or after each multiple of 0.05 T, so the two runs' sample times
+    // differ by up to a step: the multi-resolution front is interpolated linearly to the single run's times.
     double worst = 0.0, worst_T = 0.0;
-    REQUIRE(multi.Z.size() == single.Z.size());
+    REQUIRE(multi.T.size() >= 2);
     for (std::size_t k = 0; k < single.Z.size(); ++k) {
-      const double e = std::abs(multi.Z[k] / single.Z[k] - 1.0);
-      if (e > worst) worst = e, worst_T = single.T[k];
+      const double T = single.T[k];
+      if (T < multi.T.front() || T > multi.T.back()) continue;
+      const std::size_t j = std::min<std::size_t>(
+          static_cast<std::size_t>(std::upper_bound(multi.T.begin(), multi.T.end(), T) - multi.T.begin()),
+          multi.T.size() - 1);
+      const double a = (T - multi.T[j - 1]) / (multi.T[j] - multi.T[j - 1]);
+      const double Zm = (1.0 - a) * multi.Z[j - 1] + a * multi.Z[j];
+      const double e = std::abs(Zm / single.Z[k] - 1.0);
+      if (e > worst) worst = e, worst_T = T;
     }
     std::printf("dam_break_multires: to T = %.1f, %zu front samples, largest |Z_multi/Z_single - 1| = %.4f at T = %.2f; "
                 "particles %ld -> %ld (single %ld), L_min %.2f mm, splits %ld merges %ld, volume change %.1e, guard %ld / %ld, "
@@ -1395,6 +1404,7 @@ TEST_SUITE("dam_break_multires") {
     // 1551 against 1276 steps, 25 against 21 s. Reported, not bounded: the lowest fluid pressure, −4.2e5 Pa in
     // the refined zone at T ≈ 2.8 against −5.9e3 Pa at single resolution (issue #7's p ≥ −ρgH is unmet by both).
     CHECK(single.Z.size() >= 56);   // samples every 0.05 T
+    CHECK(multi.T.back() >= single.T.back() - 0.05);  // the comparison covered the whole run
     CHECK(worst <= 0.05);           // the issue's 5 %
     CHECK(multi.splits > 50);       // the surge was refined ...
     CHECK(multi.L_min <= 0.5 * L * (1.0 + 1e-12));  // ... down to the target 2 mm
