@@ -177,13 +177,10 @@ int main(int argc, char** argv) try {
         if (r.series == base) curve.push_back({r.wall_median, bench::reporter::value(r, "series")});
       if (curve.empty()) continue;
       const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, bench::reporter::value(m, "series")});
-      const char* how = s.how == bench::speed_up_result::kind::interpolated ? "interpolated"
-                        : s.how == bench::speed_up_result::kind::at_most  ? "at_most"
-                                                                          : "at_least";
-      std::cout << m.name << ": single resolution needs " << (s.how == bench::speed_up_result::kind::at_most ? "<= " : s.how == bench::speed_up_result::kind::at_least ? ">= " : "")
-                << s.single_seconds << " s for its error; speed-up " << how << " " << s.speed_up << "\n";
+      std::cout << m.name << ": single resolution needs " << s.bound_prefix() << s.single_seconds
+                << " s for its error; speed-up " << s.kind_name() << " " << s.speed_up << "\n";
       f << m.name << "," << m.wall_median << "," << bench::reporter::value(m, "series") << "," << curve.size() << ","
-        << how << "," << s.single_seconds << "," << s.speed_up << "\n";
+        << s.kind_name() << "," << s.single_seconds << "," << s.speed_up << "\n";
     }
     std::cout << "wrote " << su.string() << "\n";
   }

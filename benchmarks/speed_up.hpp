@@ -31,6 +31,12 @@ struct speed_up_result {
   double single_seconds = std::numeric_limits<double>::quiet_NaN();
   /// single_seconds / the multi-resolution time (a bound unless how == interpolated).
   double speed_up = std::numeric_limits<double>::quiet_NaN();
+  /// "interpolated", "at_most" or "at_least" (the CSV column).
+  const char* kind_name() const {
+    return how == kind::interpolated ? "interpolated" : how == kind::at_most ? "at_most" : "at_least";
+  }
+  /// "", "<= " or ">= ": how a printed single_seconds or speed_up is to be read.
+  const char* bound_prefix() const { return how == kind::interpolated ? "" : how == kind::at_most ? "<= " : ">= "; }
 };
 
 /// Speed-up of `multi` against the single-resolution runs `single` (at least one). The runs are taken in order

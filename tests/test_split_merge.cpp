@@ -10,6 +10,7 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -261,6 +262,13 @@ TEST_SUITE("split_merge") {
     const auto better = bench::speed_up(curve, {5.0, 1e-3});
     CHECK(better.how == kind::at_least);
     CHECK(better.speed_up == doctest::Approx(20.0).epsilon(1e-14));
+    // The names the reporter writes: the CSV's kind column and the printed bound.
+    CHECK(std::string(r.kind_name()) == "interpolated");
+    CHECK(std::string(r.bound_prefix()).empty());
+    CHECK(std::string(worse.kind_name()) == "at_most");
+    CHECK(std::string(worse.bound_prefix()) == "<= ");
+    CHECK(std::string(better.kind_name()) == "at_least");
+    CHECK(std::string(better.bound_prefix()) == ">= ");
     // An error that grows with cost (the dam break's front, docs/validation.md): the cheapest crossing.
     const std::vector<cost_point> rising{{1.0, 0.05}, {4.0, 0.06}, {16.0, 0.04}};
     const auto x = bench::speed_up(rising, {2.0, 0.055});
