@@ -784,6 +784,95 @@ TEST_SUITE("operators") {
     }
   }
 
+  TEST_CASE_TEMPLATE("op: neumann points: wall points carrying exact ∂f/∂n reproduce a quadratic beside a wall", Dim,
+                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    // The wall y = 0 sampled at spacing h (normal +y, toward the fluid), a jittered fluid lattice above it
+    // from y = 0.3 h. Every fluid particle's fit (type A, order 2) takes the wall points as the equations
+    // n·∇f(x_k) = q_k (op::neumann_points, the scheme's copy_row = neumann_points): for a quadratic f with
+    // exact q_k every derivative is exact to rounding, and the wall points' values are never read (set to
+    // 1e6 here). The row path (build_row: the wall data in the constant) agrees with the application.
+    constexpr int D = Dim::value;
+    using A_t = op::lsmps_a<D, 2>;
+    std::mt19937_64 rng(test_seed() + 29);
+    MESSAGE("seed " << test_seed() + 29 << " (set MPSKIT_TEST_SEED to replay)");
+    const double h = 0.1;
+    const int m = 6;
+    std::uniform_real_distribution<double> J(-0.2 * h, 0.2 * h);
+    std::vector<vec<D>> pts;
+    std::vector<std::uint8_t> mark;
+    const int mz = D == 3 ? m : 1;
+    for (int k = 0; k < mz; ++k)
+      for (int i = 0; i < m; ++i) {  // wall points
+        vec<D> q = vec<D>::Zero();
+        q[0] = i * h;
+        if constexpr (D == 3) q[2] = k * h;
+        pts.push_back(q);
+        mark.push_back(1);
+      }
+    for (int k = 0; k < mz; ++k)
+      for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < m; ++i) {  // fluid
+          vec<D> q;
+          q[0] = i * h + J(rng);
+          q[1] = (0.5 + j) * h + J(rng);
+          if constexpr (D == 3) q[2] = k * h + J(rng);
+          pts.push_back(q);
+          mark.push_back(0);
+        }
+    points<D> x(D, static_cast<index_t>(pts.size()));
+    for (std::size_t k = 0; k < pts.size(); ++k) x.col(static_cast<index_t>(k)) = pts[k];
+    const search::neighbour_list<D> nl = list_for(x, 3.1 * h);
+    points<D> n = points<D>::Zero(D, x.cols());
+    n.row(1).setOnes();
+    const polynomial<D> f = random_polynomial<D>(2, rng);
+    Eigen::VectorXd phi = f.sample(x), dfdn = Eigen::VectorXd::Zero(x.cols());
+    for (index_t k = 0; k < x.cols(); ++k)
+      if (mark[static_cast<std::size_t>(k)]) {
+        dfdn[k] = f.d(x.col(k), {0, 1, 0});
+        phi[k] = 1e6;  // never read as a value
+      }
+    A_t A;
+    A.compute(exec::seq{}, x, nl, op::uniform_size{h}, op::neumann_points<D>{&n, &mark, &dfdn});
+    const auto ders = derivative_list<D, 2>();
+    double err = 0.0, err_row = 0.0, err_plain = 0.0;
+    A_t plain;  // control: the same cloud with the wall points read as values (1e6) is far off
+    plain.compute(exec::seq{}, x, nl, op::uniform_size{h});
+    for (index_t i = 0; i < x.cols(); ++i) {
+      if (mark[static_cast<std::size_t>(i)]) continue;
+      CHECK(A.flags()[static_cast<std::size_t>(i)] == 0);
+      const auto d = A.derivatives(x, nl, i, phi);
+      for (std::size_t k = 0; k < ders.size(); ++k) {
+        err = std::max(err, std::abs(d[static_cast<int>(k)] - f.d(x.col(i), ders[k])));
+        err_plain = std::max(err_plain, std::abs(plain.derivatives(x, nl, i, phi)[static_cast<int>(k)] -
+                                                 f.d(x.col(i), ders[k])));
+      }
+      const vec<D> g = A.gradient(x, nl, i, phi);
+      for (int a = 0; a < D; ++a) {
+        std::array<int, 3> e{0, 0, 0};
+        e[static_cast<std::size_t>(a)] = 1;
+        err = std::max(err, std::abs(g[a] - f.d(x.col(i), e)));
+      }
+      op::row_entries row(i);
+      A.build_row(x, nl, i, A_t::laplacian_selector(), op::all_neighbours{}, row);
+      row.merge();
+      double lap = 0.0;
+      for (int a = 0; a < D; ++a) {
+        std::array<int, 3> e{0, 0, 0};
+        e[static_cast<std::size_t>(a)] = 2;
+        lap += f.d(x.col(i), e);
+      }
+      err_row = std::max(err_row, std::abs(row.apply(phi) - lap));
+    }
+    MESSAGE(D << "D: max derivative error " << err << " (row " << err_row << "; values read as values: " << err_plain << ")");
+    CHECK(err < 1e-7);      // exact up to rounding (|coefficients| ≤ 10, h = 0.1: second derivatives ~ 20)
+    CHECK(err_row < 1e-7);  // the row's constant carries the wall data
+    CHECK(err_plain > 1.0);  // so a value read at a wall point would show
+    // Bad input: the vector-field calls are not defined with Neumann points and say so.
+    CHECK_THROWS_AS(A.divergence(x, nl, static_cast<index_t>(x.cols() - 1), x), mpskit::error);
+    CHECK_THROWS_AS(A.compute(exec::seq{}, x, nl, op::uniform_size{h}, op::neumann_points<D>{&n, &mark, nullptr}),
+                    mpskit::error);
+  }
+
   TEST_CASE("op: the neumann constraint repairs a wall particle whose neighbours are all on the wall") {
     // Order 1, neighbours only on y = 0: M is singular in y without the constraint, regular with it.
     const double h = 0.1;

@@ -72,6 +72,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   template <Execution E, SizeModel S, class Filter = all_neighbours>
   void compute(E e, const points<D>& x, const search::neighbour_list<D>& nl, const S& size,
                const Filter& filter = {}) {
+    np_ = {};
     compute_impl(e, x, nl, size, nullptr, filter);
   }
 
@@ -89,6 +90,20 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
       fail("lsmps_a: neumann_constraint arrays have ", nc.normal->cols(), " normals and ",
            nc.constrained->size(), " marks for ", x.cols(), " particles");
     compute_impl(e, x, nl, size, &nc, filter);
+  }
+
+  /// Precompute with Neumann points: every marked neighbour j enters the fits of its neighbours as the
+  /// equation n_j·∇φ(x_j) = q_j (weighted like a value neighbour) instead of a value φ_j. Only the scalar
+  /// row, gradient and derivative calls accept such an operator (the data q_j are read through np.dfdn).
+  template <Execution E, SizeModel S, class Filter = all_neighbours>
+  void compute(E e, const points<D>& x, const search::neighbour_list<D>& nl, const S& size,
+               const neumann_points<D>& np, const Filter& filter = {}) {
+    if (!np.normal || !np.mark || !np.dfdn) fail("lsmps_a: neumann_points needs `normal`, `mark` and `dfdn`");
+    if (np.normal->cols() != x.cols() || static_cast<index_t>(np.mark->size()) != x.cols())
+      fail("lsmps_a: neumann_points arrays have ", np.normal->cols(), " normals and ", np.mark->size(),
+           " marks for ", x.cols(), " particles");
+    np_ = np;
+    compute_impl(e, x, nl, size, nullptr, filter);
   }
 
   index_t size() const { return n_; }                              ///< particles of the last compute
@@ -129,6 +144,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   template <class Filter, class F>
   void for_each_row_weight(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                            const Filter& filter, F&& f) const {
+    no_points("stencil weights");
     const vector h = basis::h_diag(diameter(i));
     const matrix A = h.asDiagonal() * inverse_moments(i);
     vector pv;
@@ -142,6 +158,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   template <class Filter, class F>
   void for_each_row_weight(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                            const vector& sel, const Filter& filter, F&& f) const {
+    no_points("stencil weights");
     const vector lhat = functional(i, sel);
     vector pv;
     sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
@@ -154,6 +171,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   template <class Filter, class F>
   void for_each_gradient_weight(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                                 const Filter& filter, F&& f) const {
+    no_points("stencil weights");
     const double Linv = 1.0 / diameter(i);
     const Eigen::Matrix<double, D, basis_size> G = Linv * inverse_moments(i).template topRows<D>();
     vector pv;
@@ -179,6 +197,11 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     double diag = 0.0;
     vector pv;
     sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
+      if (is_point(j)) {  // a Neumann point: its known datum L_i q_j goes to the row's constant
+        basis::eval_directional(s, np_.normal->col(j), pv);
+        builder.add_constant(w * rv.lhat.dot(pv) * rv.L * (*np_.dfdn)[j]);
+        return;
+      }
       basis::eval(s, pv);
       const double a = w * rv.lhat.dot(pv);
       builder.add(j, a);
@@ -251,6 +274,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   template <class Filter = all_neighbours>
   double divergence(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const points<D>& u,
                     const Filter& filter = {}) const {
+    no_points("divergence");
     const Eigen::Matrix<double, basis_size, D> B = moment_matrix(x, nl, i, u, filter);
     const Eigen::Map<const matrix> Mi = inverse_moments(i);
     double s = 0.0;
@@ -262,6 +286,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   template <class Filter = all_neighbours>
   vec<D> laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i, const points<D>& u,
                    const Filter& filter = {}) const {
+    no_points("vector laplacian");
     const Eigen::Matrix<double, basis_size, D> B = moment_matrix(x, nl, i, u, filter);
     return vec<D>((functional(i, laplacian_selector()).transpose() * B).transpose());
   }
@@ -278,6 +303,11 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   vector functional(index_t i, const vector& sel) const {
     const vector hs = sel.cwiseProduct(basis::h_diag(diameter(i)));
     return inverse_moments(i).transpose() * hs;
+  }
+
+  bool is_point(index_t j) const { return np_.mark && (*np_.mark)[static_cast<std::size_t>(j)] != 0; }
+  void no_points(const char* what) const {
+    if (np_.mark) fail("lsmps_a: ", what, " of an operator computed with Neumann points is not defined");
   }
 
   bool is_constrained(index_t i) const { return nc_normal_ && (*nc_mark_)[static_cast<std::size_t>(i)] != 0; }
@@ -322,7 +352,13 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
                        const Eigen::Ref<const Eigen::VectorXd>& phi, const Filter& filter) const {
     vector b = vector::Zero(), pv;
     const double phii = phi[i];
+    const double Li = diameter(i);
     sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
+      if (is_point(j)) {
+        basis::eval_directional(s, np_.normal->col(j), pv);
+        b += (w * Li * (*np_.dfdn)[j]) * pv;
+        return;
+      }
       basis::eval(s, pv);
       b += (w * (phi[j] - phii)) * pv;
     });
@@ -363,6 +399,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
           fail("lsmps_a: diameter of particle ", i, " = ", (*size.L)[i], ": must be a finite number > 0");
       L_ = size.L;
     }
+    if (nc) np_ = {};
     nc_normal_ = nc ? nc->normal : nullptr;
     nc_mark_ = nc ? nc->constrained : nullptr;
     nc_form_ = nc ? nc->form : neumann_form::derivative;
@@ -401,7 +438,14 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
       }
       k = 0;
     };
-    sweep(x, nl, i, filter, [&](index_t, double w, const vec<D>& s) {
+    matrix Mp = matrix::Zero();
+    sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
+      if (is_point(j)) {  // a Neumann point: w d dᵀ with d = n_j·∇_s p(s)
+        vector d;
+        basis::eval_directional(s, np_.normal->col(j), d);
+        Mp.noalias() += (w) * d * d.transpose();
+        return;
+      }
       wb[static_cast<std::size_t>(k)] = w;
       sb[static_cast<std::size_t>(k)] = s;
       if (++k == chunk) flush();
@@ -411,7 +455,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     {
       int t = 0;
       for (int a = 0; a < basis_size; ++a)
-        for (int b = 0; b <= a; ++b) M(a, b) = acc[static_cast<std::size_t>(t++)];
+        for (int b = 0; b <= a; ++b) M(a, b) = acc[static_cast<std::size_t>(t++)] + Mp(a, b);
     }
     if (is_constrained(i)) {
       const vector q = neumann_vector(i);  // w(0) q
@@ -443,6 +487,7 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   const points<D>* nc_normal_ = nullptr;
   const std::vector<std::uint8_t>* nc_mark_ = nullptr;
   neumann_form nc_form_ = neumann_form::derivative;
+  neumann_points<D> np_{};
   index_t n_ = 0;
   std::vector<double> factors_;
   std::vector<flag::type> flags_;

@@ -6,6 +6,8 @@
 #include <string_view>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/search/radius.hpp"
@@ -49,6 +51,16 @@ struct neumann_constraint {
   const points<D>* normal = nullptr;  ///< unit normals n_i (wall particles: towards the fluid, Tanaka §4.1)
   const std::vector<std::uint8_t>* constrained = nullptr;  ///< nonzero entry: particle i is constrained
   neumann_form form = neumann_form::derivative;            ///< reading of eqs. 86–87
+};
+
+/// Neighbours that enter every fit of a particle as Neumann data instead of values (wall points): a marked
+/// neighbour j contributes the equation L_i n_j·∇φ(x_j) = L_i q_j to the least squares of particle i
+/// (type A only; our reading of a Neumann wall in LSMPS without wall unknowns, docs/lsmps_scheme.md).
+template <int D>
+struct neumann_points {
+  const points<D>* normal = nullptr;                 ///< n_j of marked neighbours (toward the fluid)
+  const std::vector<std::uint8_t>* mark = nullptr;   ///< nonzero entry: j is a Neumann point
+  const Eigen::VectorXd* dfdn = nullptr;             ///< q_j = ∂φ/∂n at j (read when rows or values are made)
 };
 
 }  // namespace mpskit::op

@@ -16,7 +16,8 @@
 ///  5. Normals (eq. 31, outward) and free-surface flags (§4.6, both cone tests, the wall counted as a
 ///     neighbour: a deviation, see surface::wall_blocks_cone) on real fluid; a copy inherits its parent's flag.
 ///  6. LSMPS type A moments at x^k; with copy_row = constrained_poisson copies carry the Neumann
-///     constraint (eqs. 85–86).
+///     constraint (eqs. 85–86); with copy_row = neumann_points a second set of moments for the pressure, in
+///     which each copy is the Neumann equation of eq. 83 at its wall point (op::neumann_points).
 ///  7. Explicit prediction u′ = u + Δt (ν ∇²u + g) (eq. 13), copies holding the wall velocity (no-slip,
 ///     §4.5.1 last paragraph).
 ///  8. PPE (1/ρ) Σ cof(A)_ab ∂_a∂_b p = (det A − c′)/Δt² (eq. 63 and its 3D form, ppe/det_f.hpp), A = I +
@@ -26,7 +27,8 @@
 ///     u_wall)·n_k/Δt, i.e. the wall condition of eq. 83 imposed through the parent's own gradient stencil so
 ///     that the parent's corrected normal velocity vanishes (a deviation: the paper's form, the det F
 ///     equation with the Neumann-constrained operator of eqs. 85–87, and eq. 83 at the copy both let an
-///     odd-even mode along the wall grow by ≈ 6 % per step, measured); the paper's forms are options.
+///     odd-even mode along the wall grow by ≈ 6 % per step, measured); the paper's forms are options. With
+///     copy_row = neumann_points the copies are no unknowns (docs/lsmps_scheme.md, deviation 11).
 ///     Parts with no Dirichlet row (periodic boxes) are pinned at their lowest-id particle after making the
 ///     right-hand side compatible with the left null vector, and counted.
 ///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16).
@@ -120,8 +122,12 @@ inline regularize::tanaka_shift_params pair_penalty_shift() {
 enum class copy_row_kind {
   constrained_poisson,  ///< the det F equation with the Neumann-constrained LSMPS (eqs. 85–87)
   neumann,              ///< eq. 83 itself, (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt, with the plain LSMPS gradient
-  parent_gradient       ///< (1/ρ) n·⟨∇p⟩_parent = (u′_parent − u_wall)·n/Δt: the parent's corrected normal
+  parent_gradient,      ///< (1/ρ) n·⟨∇p⟩_parent = (u′_parent − u_wall)·n/Δt: the parent's corrected normal
                         ///< velocity vanishes (a deviation; docs/solver.md)
+  neumann_points        ///< no copy unknowns: each copy enters its neighbours' pressure fits (the PPE rows
+                        ///< and the correction's gradient) as eq. 83 at its wall point, n·∇p =
+                        ///< ρ (u′_w − u_wall)·n/Δt, in place of a value (opt-in; docs/lsmps_scheme.md
+                        ///< deviation 11); the copies' pressures are set afterwards for output and probes
 };
 
 /// The pressure operator of the det F rows (docs/lsmps_scheme.md "Stability of the projection").
@@ -197,6 +203,11 @@ struct lsmps_params {
     v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::constrained_poisson),
               "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not constrained_poisson "
               "(the det F row at a copy has no nested form)");
+    v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::neumann_points),
+              "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not neumann_points "
+              "(the nested rows read the copies' parents' gradients, which have no Neumann points)");
+    v.require(!(copy_two_point > 0.0 && copy_row == copy_row_kind::neumann_points), "copy_two_point",
+              "a two-point copy row needs copy_row = parent_gradient (with neumann_points the copies have no row)");
     v.throw_if_any();
     op.validate();
     volume.validate();
@@ -289,7 +300,7 @@ class lsmps_semi_implicit {
   /// Scenes with `boundary = boundary::pressure` also take the pressure boundary (must outlive the stepper).
   lsmps_semi_implicit(const params_type& p, state_type initial, const geometry_type* walls = nullptr,
                       const pressure_boundary_type* pressure_boundary = nullptr)
-      : p_(checked(p)), op_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls),
+      : p_(checked(p)), op_(p.op), op_p_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls),
         pb_(pressure_boundary) {
     if constexpr (has_pressure_boundary) {
       if (p_.pressure == pressure_operator::nested_gradient)
@@ -410,7 +421,13 @@ class lsmps_semi_implicit {
     }
 
     // 6. LSMPS moments at x^k; copies carry the Neumann constraint.
-    if (has_walls && p_.copy_row == copy_row_kind::constrained_poisson) {
+    if (neumann_points()) {
+      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, participates);
+      point_mark_.assign(static_cast<std::size_t>(nt), 0);
+      for (index_t k = n; k < nc_; ++k) point_mark_[static_cast<std::size_t>(k)] = 1;
+      op_p_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_},
+                    op::neumann_points<D>{&normal_, &point_mark_, &dpdn_}, participates);
+    } else if (has_walls && p_.copy_row == copy_row_kind::constrained_poisson) {
       constrained_.assign(static_cast<std::size_t>(nt), 0);
       for (index_t k = n; k < nc_; ++k) constrained_[static_cast<std::size_t>(k)] = 1;
       op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, op::neumann_constraint<D>{&normal_, &constrained_},
@@ -464,7 +481,7 @@ class lsmps_semi_implicit {
     const double inv_rho = 1.0 / p_.rho;
     for_each_particle(exec::par{}, n, [&](index_t i) {
       vec<D> unew = ut_.col(i);
-      if (participates(i)) unew -= dt * inv_rho * op_.gradient(x, nl_, i, pres, participates);
+      if (participates(i)) unew -= dt * inv_rho * pressure_op().gradient(x, nl_, i, pres, participates);
       s_.u().col(i) = unew;
     });
     // 9b. Velocity filter in the one-sided band (a deviation; regularize/boundary_filter.hpp): particles with
@@ -773,6 +790,7 @@ class lsmps_semi_implicit {
         // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step).
         const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
+        if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
         if (participates(i) && (!surface_[static_cast<std::size_t>(i)] || copy_unknown)) {
           unk_[static_cast<std::size_t>(i)] = static_cast<index_t>(rows_.size());
           rows_.push_back(i);
@@ -869,7 +887,8 @@ class lsmps_semi_implicit {
             build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);
           } else {
             const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
-            op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
+            if (neumann_points()) pressure_op().build_row(x, nl_, i, sel, participates, row);
+            else op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
           }
           // Copies have no volume correction of their own; nor do particles near a free surface, a wall or a
           // pressure boundary (c′ = 1, above).
@@ -927,6 +946,11 @@ class lsmps_semi_implicit {
       }
       pres[rows_[static_cast<std::size_t>(r)]] = v;
     }
+    if (neumann_points())  // copies (output, probes): the two-point form of eq. 83
+      for (index_t k = n; k < nc_; ++k) {
+        const index_t ip = parent(k);
+        pres[k] = pres[ip] - (x.col(ip) - x.col(k)).dot(normal_.col(k)) * dpdn_[k];
+      }
   }
 
   /// Fluid rows (not copies, not boundary particles) of the m built rows whose diagonal is ≥ 0 (or not a
@@ -1087,7 +1111,11 @@ class lsmps_semi_implicit {
   }
 
   params_type p_;
-  op_type op_;
+  op_type op_, op_p_;  ///< op_p_: the pressure operator with Neumann points (copy_row = neumann_points)
+  /// Copies are Neumann points of the pressure fits (copy_row = neumann_points, a scene with walls).
+  bool neumann_points() const { return has_walls && p_.copy_row == copy_row_kind::neumann_points; }
+  const op_type& pressure_op() const { return neumann_points() ? op_p_ : op_; }
+  std::vector<std::uint8_t> point_mark_;
   source_type source_;
   time_step_controller dt_ctrl_;
   solver_type solver_, adjoint_solver_;

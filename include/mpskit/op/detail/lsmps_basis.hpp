@@ -177,6 +177,27 @@ requires Dimension<D> &&(P >= 1 && P <= 3) struct lsmps_basis {
     for (int a = 0; a < D; ++a) s[a] = n[a];
     return s;
   }
+
+  /// n·∇_s p(s): the directional derivative of every monomial at the scaled point s (a Neumann equation's
+  /// row in the least squares: n·∇f(x) L = Σ_α a_α n·∂_s p_α(s) for f = Σ_α a_α p_α).
+  static void eval_directional(const vec<D>& s, const vec<D>& n, vector& out) {
+    std::array<std::array<double, P + 1>, D> pw{};
+    for (int a = 0; a < D; ++a) {
+      pw[a][0] = 1.0;
+      for (int e = 1; e <= P; ++e) pw[a][e] = pw[a][e - 1] * s[a];
+    }
+    for (int k = 0; k < size; ++k) {
+      double v = 0.0;
+      for (int b = 0; b < D; ++b) {
+        const int eb = table.alpha[k][b];
+        if (eb == 0) continue;
+        double t = eb * n[b];
+        for (int a = 0; a < D; ++a) t *= pw[a][table.alpha[k][a] - (a == b ? 1 : 0)];
+        v += t;
+      }
+      out[k] = v;
+    }
+  }
 };
 
 /// Result of a factorisation with the relative-pivot test.
