@@ -8,7 +8,8 @@
 // --T-end T (dimensionless, default 3), --out DIR (default benchmarks/results), --data DIR (default
 // tests/data/dam_break_front of the source tree), --lsmps-levels N1,... (Tanaka's dam break with the LSMPS
 // scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A order,
-// default 2), --lsmps-T-end T (default: --T-end).
+// default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points] (the LSMPS
+// wall rows, lsmps_params::copy_row; default parent_gradient, the library's default).
 //
 // The LSMPS case (cases/tanaka_dam_break_run.hpp, issue #7) has the same shape as Koshizuka & Oka's (vessel
 // 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data in
@@ -136,18 +137,22 @@ struct lsmps_order3 : lsmps_defaults<2> {
   using op = mpskit::op::lsmps_a<2, 3, kernel>;
 };
 
-/// Tanaka's dam break with the LSMPS scheme's defaults at L = h0/N.
+/// Tanaka's dam break with the LSMPS scheme's defaults at L = h0/N (copies as Neumann points when asked).
 template <class Scene>
-bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data) {
+bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data,
+                                bool neumann_points = false) {
   cases::tanaka_dam_break_config cfg;
   cfg.L = cfg.column_width / N;
   bench::configuration c;
-  c.name = "lsmps-" + std::to_string(order) + " h0/" + std::to_string(N);
-  c.series = "LSMPS-A order " + std::to_string(order) + " (Tanaka's vessel)";
+  c.name = "lsmps-" + std::to_string(order) + (neumann_points ? "-np" : "") + " h0/" + std::to_string(N);
+  c.series = "LSMPS-A order " + std::to_string(order) + (neumann_points ? ", Neumann-point walls" : "") +
+             " (Tanaka's vessel)";
   c.l0 = cfg.L;
   const std::string c_name = c.name;
-  c.run = [cfg, data, T_end, c_name]() {
-    const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, {}, true);
+  scheme::lsmps_params<2> p;
+  if (neumann_points) p.copy_row = scheme::copy_row_kind::neumann_points;
+  c.run = [cfg, data, T_end, c_name, p]() {
+    const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true);
     if (r.failed) std::cout << "  " << c_name << ": failed at T = " << r.T_failed << ": " << r.failure << "\n";
     bench::run_outcome o = outcome_of(r, *data, T_end, c_name);
     if (r.failed)  // errors over the samples before a failure are not comparable: left out of the plot
@@ -178,6 +183,7 @@ int main(int argc, char** argv) try {
   solvers.push_back("cholmod");
 #endif
   std::vector<int> lsmps_levels{20, 25}, lsmps_orders{2};
+  std::vector<std::string> lsmps_walls{"parent_gradient"};
   int reps = 3;
   double T_end = 3.0, lsmps_T_end = -1.0;
   std::string out = "benchmarks/results", data_dir = MPSKIT_DAM_BREAK_DATA_DIR;
@@ -214,6 +220,11 @@ int main(int argc, char** argv) try {
         if (q != 2 && q != 3) fail("report_dam_break: --lsmps-orders entry ", q, " (accepted: 2, 3)");
         lsmps_orders.push_back(q);
       }
+    } else if (a == "--lsmps-walls") {
+      lsmps_walls = split(next());
+      for (const std::string& w : lsmps_walls)
+        if (w != "parent_gradient" && w != "neumann_points")
+          fail("report_dam_break: --lsmps-walls entry '", w, "' (accepted: parent_gradient, neumann_points)");
     } else if (a == "--lsmps-T-end") {
       lsmps_T_end = std::stod(next());
       if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
@@ -223,7 +234,7 @@ int main(int argc, char** argv) try {
       data_dir = next();
     } else {
       fail("report_dam_break: unknown option '", a,
-           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --out, --data)");
+           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --lsmps-walls, --out, --data)");
     }
   }
   const std::vector<cases::front_series> data{cases::read_front_series(data_dir + "/martin_moyce_1952_a1.125in.csv"),
@@ -248,11 +259,13 @@ int main(int argc, char** argv) try {
       }
     }
   if (lsmps_T_end < 0.0) lsmps_T_end = T_end;
-  for (int q : lsmps_orders)
-    for (int N : lsmps_levels) {
-      if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data));
-      else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data));
-    }
+  for (const std::string& w : lsmps_walls)
+    for (int q : lsmps_orders)
+      for (int N : lsmps_levels) {
+        const bool np = w == "neumann_points";
+        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, np));
+        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, np));
+      }
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);
   const std::filesystem::path csv = std::filesystem::path(out) / "dam_break_speed_error.csv";
