@@ -2,12 +2,13 @@
 // driven by the body force G/ρ, and the same channel driven by pressure inflow/outflow boundaries, against
 // the start-up series (validation-cases.md D1).
 // Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]   |   channel --duct [t_end] [L]
-//        |   channel --multi [L] [t_end] [--refine R]
+//        |   channel --multi [L] [t_end] [--refine R] [--neumann-points]
 //   --duct:  the 3D square duct (W = 4 mm, 8 mm long, L = 0.5 mm) through pressure faces, and periodic with G/rho,
 //            against the start-up series: channel --duct [t_end] [L]
 //   --multi: the multi-diameter channel (30 mm -> 10 mm, 100 Pa -> 0 Pa, mu = 0.001 Pa s); default L = 1 mm to
 //            0.3 s (the CI case); the paper's is L = 0.25 mm to 1 s. --refine R: start from L and split to L/R
 //            entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 -> 0.25 mm, R = 3)
+//            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s, ILUT-BiCGSTAB (Tanaka's single resolution
@@ -75,7 +76,9 @@ int run(int argc, char** argv) {
       return true;
     };
     for (int a = 2; a < argc; ++a) {
-      if (!std::strcmp(argv[a], "--refine")) {
+      if (!std::strcmp(argv[a], "--neumann-points")) {  // the wall copies as Neumann points (opt-in wall rows)
+        mc.params.copy_row = mpskit::scheme::copy_row_kind::neumann_points;
+      } else if (!std::strcmp(argv[a], "--refine")) {
         if (a + 1 >= argc) {
           std::fprintf(stderr, "channel --multi: --refine needs a diameter ratio R >= 1\n");
           return 2;
@@ -92,7 +95,8 @@ int run(int argc, char** argv) {
         if (!number("t_end", argv[a], mc.t_end)) return 2;
         ++positional;
       } else {
-        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R] (unexpected '%s')\n", argv[a]);
+        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R] [--neumann-points] (unexpected '%s')\n",
+                     argv[a]);
         return 2;
       }
     }
@@ -103,8 +107,9 @@ int run(int argc, char** argv) {
     if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
     const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<mpskit::cases::multi_diameter_multires_scene>(mc)
                                 : mpskit::cases::run_multi_diameter(mc);
-    std::printf("multi-diameter channel, L = %.3f mm%s (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
+    std::printf("multi-diameter channel, L = %.3f mm%s%s (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
                 mc.L * 1e3, ratio >= 1.0 ? ", split to L/ratio in the narrow section" : "",
+                mc.params.copy_row == mpskit::scheme::copy_row_kind::neumann_points ? ", Neumann-point walls" : "",
                 static_cast<long long>(r.particles), r.steps, r.wall_seconds, mc.t_end);
     std::printf("  volume balance over the last %.2f s: |Q_in - Q_out - dV/dt| / Q_in = %.4f (Q_in %.3e m^2/s)\n",
                 mc.window, r.balance, r.q_in);
