@@ -71,6 +71,17 @@ scheme::lsmps_params<D> rest_params() {
   return p;
 }
 
+/// The 2D polygon tank of the stability tests: 12 × 8 cm of water at L = 1 cm, a left wall at `angle`.
+cases::polygon_tank_config tank_2d(double angle) {
+  cases::polygon_tank_config tc;
+  tc.L = 0.01;
+  tc.W = 0.12;
+  tc.H = 0.08;
+  tc.angle_deg = angle;
+  tc.tank_height = 0.13;
+  return tc;
+}
+
 /// Spectral radii of the linearised step in a polygon tank at rest: with the filter (the default), without
 /// it, and (nested = true) with the nested-gradient operator and no filter.
 struct tank_radii {
@@ -131,12 +142,7 @@ TEST_SUITE("projection_stability") {
   }
   TEST_CASE("polygon tanks (90 and 60 degree walls, imaginary copies): the nested gradient keeps |lambda| <= 1") {
     for (const double angle : {90.0, 60.0}) {
-      cases::polygon_tank_config tc;
-      tc.L = 0.01;
-      tc.W = 0.12;
-      tc.H = 0.08;
-      tc.angle_deg = angle;
-      tc.tank_height = 0.13;
+      cases::polygon_tank_config tc = tank_2d(angle);
       const tank_radii r = tank_spectral_radii<tank_scene>(tc, true);
       std::printf("projection_stability tank %.0f deg, %lld fluid: |lambda|max - 1 = %.3e (second derivatives), %.3e "
                   "(filtered, the default), %.3e (nested)\n",
@@ -259,12 +265,7 @@ TEST_SUITE("projection_stability") {
       return r;
     };
     for (const double angle : {90.0, 60.0}) {
-      cases::polygon_tank_config tc;
-      tc.L = 0.01;
-      tc.W = 0.12;
-      tc.H = 0.08;
-      tc.angle_deg = angle;
-      tc.tank_height = 0.13;
+      cases::polygon_tank_config tc = tank_2d(angle);
       CHECK(radius(tank_scene{}, tc) - 1.0 <= 1e-9);
       tc.W = 0.06;  // the 3D tanks of the test "3D tanks (box, 60 degree prism)"
       tc.H = 0.05;
