@@ -438,12 +438,13 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
       }
       k = 0;
     };
-    matrix Mp = matrix::Zero();
+    matrix Mp;  // Neumann points' part (only with neumann_points)
+    if (np_.mark) Mp.setZero();
     sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
       if (is_point(j)) {  // a Neumann point: w d dᵀ with d = n_j·∇_s p(s)
         vector d;
         basis::eval_directional(s, np_.normal->col(j), d);
-        Mp.noalias() += (w) * d * d.transpose();
+        Mp.noalias() += w * d * d.transpose();
         return;
       }
       wb[static_cast<std::size_t>(k)] = w;
@@ -455,8 +456,9 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     {
       int t = 0;
       for (int a = 0; a < basis_size; ++a)
-        for (int b = 0; b <= a; ++b) M(a, b) = acc[static_cast<std::size_t>(t++)] + Mp(a, b);
+        for (int b = 0; b <= a; ++b) M(a, b) = acc[static_cast<std::size_t>(t++)];
     }
+    if (np_.mark) M.template triangularView<Eigen::Lower>() += Mp;
     if (is_constrained(i)) {
       const vector q = neumann_vector(i);  // w(0) q
       const double w0 = K::w(0.0, re(i));
