@@ -420,21 +420,21 @@ class lsmps_semi_implicit {
         if (surface_[static_cast<std::size_t>(i)]) flags[static_cast<std::size_t>(i)] |= flag::surface;
     }
 
-    // 6. LSMPS moments at x^k; copies carry the Neumann constraint.
-    if (neumann_points()) {
-      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, participates);
-      point_mark_.assign(static_cast<std::size_t>(nt), 0);
-      for (index_t k = n; k < nc_; ++k) point_mark_[static_cast<std::size_t>(k)] = 1;
-      op_p_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_},
-                    op::neumann_points<D>{&normal_, &point_mark_, &dpdn_}, participates);
-    } else if (has_walls && p_.copy_row == copy_row_kind::constrained_poisson) {
-      constrained_.assign(static_cast<std::size_t>(nt), 0);
-      for (index_t k = n; k < nc_; ++k) constrained_[static_cast<std::size_t>(k)] = 1;
-      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, op::neumann_constraint<D>{&normal_, &constrained_},
-                  participates);
-    } else {
-      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, participates);
+    // 6. LSMPS moments at x^k; copies carry the Neumann constraint (constrained_poisson), or are the Neumann
+    //    points of a second, pressure-only operator (neumann_points).
+    const bool constrained = has_walls && p_.copy_row == copy_row_kind::constrained_poisson;
+    if (constrained || neumann_points()) {
+      copy_mark_.assign(static_cast<std::size_t>(nt), 0);
+      for (index_t k = n; k < nc_; ++k) copy_mark_[static_cast<std::size_t>(k)] = 1;
     }
+    if (constrained)
+      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, op::neumann_constraint<D>{&normal_, &copy_mark_},
+                  participates);
+    else
+      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, participates);
+    if (neumann_points())
+      op_p_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_},
+                    op::neumann_points<D>{&normal_, &copy_mark_, &dpdn_}, participates);
     for (index_t i = 0; i < nt; ++i)
       if (participates(i) && (op_.flags()[static_cast<std::size_t>(i)] & flag::degenerate)) {
         flags[static_cast<std::size_t>(i)] |= flag::degenerate;
@@ -1115,7 +1115,6 @@ class lsmps_semi_implicit {
   /// Copies are Neumann points of the pressure fits (copy_row = neumann_points, a scene with walls).
   bool neumann_points() const { return has_walls && p_.copy_row == copy_row_kind::neumann_points; }
   const op_type& pressure_op() const { return neumann_points() ? op_p_ : op_; }
-  std::vector<std::uint8_t> point_mark_;
   source_type source_;
   time_step_controller dt_ctrl_;
   solver_type solver_, adjoint_solver_;
@@ -1128,7 +1127,7 @@ class lsmps_semi_implicit {
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, dx_, filter_du_;
-  std::vector<std::uint8_t> excluded_, surface_, constrained_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
+  std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
   std::vector<op::row_entries> row_buf_;  ///< PPE rows of the step (reused: capacity kept)

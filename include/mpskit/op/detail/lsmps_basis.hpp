@@ -121,14 +121,19 @@ requires Dimension<D> &&(P >= 1 && P <= 3) struct lsmps_basis {
     }
   }
 
-  /// p(s) from the monomial table (reference for `eval`, used by the tests).
-  static void eval_table(const vec<D>& s, vector& out) {
-    // powers of each coordinate up to P
+  /// s_a^e for every coordinate a and 0 ≤ e ≤ P (the table evaluations below).
+  static std::array<std::array<double, P + 1>, D> powers(const vec<D>& s) {
     std::array<std::array<double, P + 1>, D> pw{};
     for (int a = 0; a < D; ++a) {
       pw[a][0] = 1.0;
       for (int e = 1; e <= P; ++e) pw[a][e] = pw[a][e - 1] * s[a];
     }
+    return pw;
+  }
+
+  /// p(s) from the monomial table (reference for `eval`, used by the tests).
+  static void eval_table(const vec<D>& s, vector& out) {
+    const auto pw = powers(s);
     for (int k = 0; k < size; ++k) {
       double v = pw[0][table.alpha[k][0]] * pw[1][table.alpha[k][1]];
       if constexpr (D == 3) v *= pw[2][table.alpha[k][2]];
@@ -181,11 +186,7 @@ requires Dimension<D> &&(P >= 1 && P <= 3) struct lsmps_basis {
   /// n·∇_s p(s): the directional derivative of every monomial at the scaled point s (a Neumann equation's
   /// row in the least squares: n·∇f(x) L = Σ_α a_α n·∂_s p_α(s) for f = Σ_α a_α p_α).
   static void eval_directional(const vec<D>& s, const vec<D>& n, vector& out) {
-    std::array<std::array<double, P + 1>, D> pw{};
-    for (int a = 0; a < D; ++a) {
-      pw[a][0] = 1.0;
-      for (int e = 1; e <= P; ++e) pw[a][e] = pw[a][e - 1] * s[a];
-    }
+    const auto pw = powers(s);
     for (int k = 0; k < size; ++k) {
       double v = 0.0;
       for (int b = 0; b < D; ++b) {
