@@ -8,13 +8,16 @@
 // --T-end T (dimensionless, default 3), --out DIR (default benchmarks/results), --data DIR (default
 // tests/data/dam_break_front of the source tree), --lsmps-levels N1,... (Tanaka's dam break with the LSMPS
 // scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A order,
-// default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points] (the LSMPS
-// wall rows, lsmps_params::copy_row; default parent_gradient, the library's default).
+// default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points]
+// [,two_point_wall_only] (the LSMPS wall rows: lsmps_params::copy_row, or copy_two_point = 1 with wall-only
+// shifting; default parent_gradient, the library's default).
 //
 // The LSMPS case (cases/tanaka_dam_break_run.hpp, issue #7) has the same shape as Koshizuka & Oka's (vessel
 // 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data in
 // the same (T, Z). A run that fails before T_end is reported with NaN front errors (not plotted), the metric
-// "completed" = 0 (1 when it reached T_end), T_reached/100 and its samples in dam_break_fronts.csv.
+// "completed" = 0 (1 when it reached T_end), T_reached/100 and its samples in dam_break_fronts.csv. The LSMPS
+// runs also report the probe at (195, 5) mm (issue #7): T when it gets wet, and over the 20 ms after that the
+// pressure impulse, the 2 ms moving-average peak and the peak of every 100th step (Tanaka's sampling), each /100.
 //
 // Error metric (docs/validation.md): at every front sample T_k ≤ T_end (ΔT = 0.05), Z_ref(T_k) is the
 // mean of the data series defined at T_k (Martin & Moyce 1952 two scales, Koshizuka & Oka 1996;
@@ -31,6 +34,7 @@
 #include <vector>
 
 #include "cases/dam_break.hpp"
+#include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "reporter.hpp"
 #ifdef MPSKIT_HAS_SUITESPARSE
@@ -137,20 +141,32 @@ struct lsmps_order3 : lsmps_defaults<2> {
   using op = mpskit::op::lsmps_a<2, 3, kernel>;
 };
 
-/// Tanaka's dam break with the LSMPS scheme's defaults at L = h0/N (copies as Neumann points when asked).
+/// Tanaka's dam break with the LSMPS scheme at L = h0/N; `walls`: parent_gradient (the defaults), neumann_points
+/// (copy_row = neumann_points) or two_point_wall_only (copy_two_point = 1 and shift.projection = wall_only).
+/// Besides the front: the probe at (195, 5) mm sampled every step (cases::measure_impact; window 20 ms after
+/// the probe gets wet, 2 ms moving average, every 100 steps as Tanaka sampled), NaN when the run did not
+/// reach the end of the window.
 template <class Scene>
 bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data,
-                                bool neumann_points = false) {
+                                const std::string& walls = "parent_gradient") {
   cases::tanaka_dam_break_config cfg;
   cfg.L = cfg.column_width / N;
   bench::configuration c;
-  c.name = "lsmps-" + std::to_string(order) + (neumann_points ? "-np" : "") + " h0/" + std::to_string(N);
-  c.series = "LSMPS-A order " + std::to_string(order) + (neumann_points ? ", Neumann-point walls" : "") +
+  const std::string tag = walls == "neumann_points" ? "-np" : walls == "two_point_wall_only" ? "-tp" : "";
+  c.name = "lsmps-" + std::to_string(order) + tag + " h0/" + std::to_string(N);
+  c.series = "LSMPS-A order " + std::to_string(order) +
+             (walls == "neumann_points"        ? ", Neumann-point walls"
+              : walls == "two_point_wall_only" ? ", two-point copy rows + wall-only shifting"
+                                               : "") +
              " (Tanaka's vessel)";
   c.l0 = cfg.L;
   const std::string c_name = c.name;
   scheme::lsmps_params<2> p;
-  if (neumann_points) p.copy_row = scheme::copy_row_kind::neumann_points;
+  if (walls == "neumann_points") p.copy_row = scheme::copy_row_kind::neumann_points;
+  if (walls == "two_point_wall_only") {
+    p.copy_two_point = 1.0;
+    p.shift.projection = regularize::penalty_projection::wall_only;
+  }
   c.run = [cfg, data, T_end, c_name, p]() {
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true);
     if (r.failed) std::cout << "  " << c_name << ": failed at T = " << r.T_failed << ": " << r.failure << "\n";
@@ -160,6 +176,13 @@ bench::configuration make_lsmps(int order, int N, double T_end, const std::vecto
     o.errors.push_back({"completed", r.failed ? 0.0 : 1.0});
     o.errors.push_back({"T_reached/100", (r.failed ? r.T_failed : T_end) / 100.0});
     o.errors.push_back({"p_min/rho_g_H", r.p_min / r.rho_g_h});
+    const cases::impact_measures m = cases::measure_impact(r.probe_t, r.probe_p, 0.02, 0.002);
+    const double nan = std::nan(""), T_of = std::sqrt(2.0 * cfg.g / cfg.column_width);
+    // Divided by 100 like T_reached: the Markdown table prints 100 × each metric.
+    o.errors.push_back({"probe_T_arrival/100", m.t_arrival * T_of / 100.0});
+    o.errors.push_back({"probe_impulse_20ms_Pa_s/100", (m.complete ? m.impulse : nan) / 100.0});
+    o.errors.push_back({"probe_peak_2ms_Pa/100", (m.complete ? m.peak_filtered : nan) / 100.0});
+    o.errors.push_back({"probe_peak_every100_Pa/100", (m.complete ? m.peak_sparse : nan) / 100.0});
     return o;
   };
   return c;
@@ -223,8 +246,9 @@ int main(int argc, char** argv) try {
     } else if (a == "--lsmps-walls") {
       lsmps_walls = split(next());
       for (const std::string& w : lsmps_walls)
-        if (w != "parent_gradient" && w != "neumann_points")
-          fail("report_dam_break: --lsmps-walls entry '", w, "' (accepted: parent_gradient, neumann_points)");
+        if (w != "parent_gradient" && w != "neumann_points" && w != "two_point_wall_only")
+          fail("report_dam_break: --lsmps-walls entry '", w,
+               "' (accepted: parent_gradient, neumann_points, two_point_wall_only)");
     } else if (a == "--lsmps-T-end") {
       lsmps_T_end = std::stod(next());
       if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
@@ -262,9 +286,8 @@ int main(int argc, char** argv) try {
   for (const std::string& w : lsmps_walls)
     for (int q : lsmps_orders)
       for (int N : lsmps_levels) {
-        const bool np = w == "neumann_points";
-        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, np));
-        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, np));
+        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, w));
+        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, w));
       }
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);

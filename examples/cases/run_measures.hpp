@@ -1,8 +1,13 @@
 #pragma once
-// What the channel and gear runners measure during a run: the fluid volume, the velocity flux through a slab,
-// and the extreme fluid pressures and speeds with where and when.
+// What the runners measure during a run: the fluid volume, the velocity flux through a slab, the extreme fluid
+// pressures and speeds with where and when (channels, gears), and a pressure probe's first impact (dam breaks).
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "mpskit/core/error.hpp"
 
 #include "mpskit/core/fields.hpp"
 
@@ -72,6 +77,72 @@ void record_channel_end(Result& r, const Counters& k, const State& st, double V0
   r.particles_end = st.n_real();
   r.L_min = std::sqrt(V.minCoeff());
   r.L_max = std::sqrt(V.maxCoeff());
+}
+
+/// A pressure probe's first impact, from its time series sampled every step (measure_impact).
+struct impact_measures {
+  double t_arrival = std::numeric_limits<double>::quiet_NaN();  ///< first sample with a value (the probe wet), s
+  double window = 0.0;          ///< length of the impact window [t_arrival, t_arrival + window], s
+  bool complete = false;        ///< the series reaches the window's end (else the numbers are partial)
+  double impulse = 0.0;         ///< ∫ p dt over the window (trapezoids; dry samples count 0), Pa s
+  double peak = std::numeric_limits<double>::quiet_NaN();           ///< largest sample in the window, Pa
+  double t_peak = std::numeric_limits<double>::quiet_NaN();         ///< its time, s
+  double peak_filtered = std::numeric_limits<double>::quiet_NaN();  ///< largest centred moving average, Pa
+  double t_peak_filtered = std::numeric_limits<double>::quiet_NaN();  ///< its time, s
+  double peak_sparse = std::numeric_limits<double>::quiet_NaN();    ///< largest of every `every`-th step's sample, Pa
+};
+
+/// The first impact of a probe series (t_k, p_k), one sample per step, p_k NaN while the probe is dry: arrival
+/// = the first finite sample; impulse = ∫ p dt over [t_arrival, t_arrival + window] (trapezoids, dry samples as
+/// 0); peak = the largest sample there; peak_filtered = the largest centred moving average over `filter` s
+/// ((C(t + f/2) − C(t − f/2))/f with C the trapezoid integral, linear between samples; only centres whose
+/// average lies inside the series); peak_sparse = the largest sample at steps that are multiples of `every`
+/// (step k of the series is step k + 1 of the run), inside the window: Tanaka sampled every 100 steps (§5.6.1).
+/// A series that never gets wet gives NaN numbers; t must increase.
+inline impact_measures measure_impact(const std::vector<double>& t, const std::vector<double>& p, double window,
+                                      double filter, long every = 100) {
+  if (t.size() != p.size()) fail("measure_impact: ", t.size(), " times but ", p.size(), " values");
+  if (!(window > 0.0) || !(filter > 0.0) || every < 1)
+    fail("measure_impact: window = ", window, " s and filter = ", filter, " s must be > 0, every = ", every, " >= 1");
+  for (std::size_t k = 1; k < t.size(); ++k)
+    if (!(t[k] > t[k - 1])) fail("measure_impact: times not increasing at sample ", k);
+  impact_measures m;
+  m.window = window;
+  std::size_t a = 0;
+  while (a < p.size() && !std::isfinite(p[a])) ++a;
+  if (a == p.size()) return m;
+  m.t_arrival = t[a];
+  const double t_end = m.t_arrival + window;
+  m.complete = t.back() >= t_end;
+  const auto val = [&](std::size_t k) { return std::isfinite(p[k]) ? p[k] : 0.0; };
+  // C_k = ∫_{t_0}^{t_k} p dt; C at any time by linear interpolation (the filter's integral).
+  std::vector<double> C(t.size(), 0.0);
+  for (std::size_t k = 1; k < t.size(); ++k) C[k] = C[k - 1] + 0.5 * (val(k) + val(k - 1)) * (t[k] - t[k - 1]);
+  const auto C_at = [&](double s) {
+    const auto it = std::upper_bound(t.begin(), t.end(), s);
+    if (it == t.begin()) return C.front();
+    if (it == t.end()) return C.back();
+    const std::size_t k = static_cast<std::size_t>(it - t.begin());
+    const double f = (s - t[k - 1]) / (t[k] - t[k - 1]);
+    return C[k - 1] + f * (C[k] - C[k - 1]);
+  };
+  m.impulse = C_at(std::min(t_end, t.back())) - C[a];
+  for (std::size_t k = a; k < t.size() && t[k] <= t_end; ++k) {
+    const double v = val(k);
+    if (!(v <= m.peak)) {
+      m.peak = v;
+      m.t_peak = t[k];
+    }
+    if ((static_cast<long>(k) + 1) % every == 0 && !(v <= m.peak_sparse)) m.peak_sparse = v;
+    if (t[k] - 0.5 * filter >= t.front() && t[k] + 0.5 * filter <= t.back()) {
+      const double avg = (C_at(t[k] + 0.5 * filter) - C_at(t[k] - 0.5 * filter)) / filter;
+      if (!(avg <= m.peak_filtered)) {
+        m.peak_filtered = avg;
+        m.t_peak_filtered = t[k];
+      }
+    }
+  }
+  return m;
 }
 
 }  // namespace mpskit::cases
