@@ -118,7 +118,7 @@ namespace {
 /// A polygon tank at rest with Tanaka's scheme (defaults: shifting and the
 /// one-sided-band velocity filter on), averaged over [20, 40] √(H/g).
 template <int D>
-cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, double L) {
+cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, double L, double alpha_g = 0.001) {
   cases::hydrostatic_polygon_config<D> cfg;
   cfg.tank.angle_deg = angle_deg;
   cfg.tank.L = L;
@@ -127,11 +127,12 @@ cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, doubl
   cfg.tank.B = 0.05;
   cfg.tank.tank_height = 0.15;
   cfg.params.time.dt_max = 0.1 * L / std::sqrt(9.81 * 0.1);
+  cfg.params.shift.alpha_g = alpha_g;
   const auto r = cases::run_hydrostatic_polygon<lsmps_defaults<D>>(cfg);
-  std::printf("hydrostatic_polygon long %dD %.0f deg L = %.4f: %lld fluid, %ld steps, max bin error "
+  std::printf("hydrostatic_polygon long %dD %.0f deg L = %.4f alpha_g = %g: %lld fluid, %ld steps, max bin error "
               "%.4f, rms %.2e, max %.2e sqrt(gH), surface %.4f (initial %.4f), guarded %ld, min signed distance %.2e L, "
               "%.1f s\n",
-              D, angle_deg, L, static_cast<long long>(r.fluid), r.steps,
+              D, angle_deg, L, alpha_g, static_cast<long long>(r.fluid), r.steps,
               r.max_bin_error, r.rms_speed, r.max_speed, r.surface_height, r.surface_height_initial, r.guarded,
               r.min_signed_distance / L, r.wall_seconds);
   return r;
@@ -167,10 +168,26 @@ TEST_SUITE("hydrostatic_polygon") {
   TEST_CASE("hydrostatic tank with a 60 degree incline for 40 sqrt(H/g), 2D: pressure met, residual speed not") {
     const auto r = check_long_hydrostatic<2>(60.0, 0.01);
     CHECK(r.max_bin_error <= 0.02);  // issue #4: 2 % (measured 0.11 %)
-    // Issue #4 asks RMS ≤ 1e-3 and max ≤ 1e-2 √(gH): unmet (measured 6.6e-3 and 1.7e-2; quiet to 1e-5 until
-    // t ≈ 1 s, then a bounded rearrangement beside the incline, docs/lsmps_scheme.md). Regression bounds only:
+    // Issue #4 asks RMS ≤ 1e-3 and max ≤ 1e-2 √(gH): unmet with the paper's α_g = 0.001 (measured 6.6e-3 and
+    // 1.7e-2; quiet to 1e-5 until t ≈ 1 s, then a bounded rearrangement beside the incline driven by the
+    // shifting, docs/lsmps_scheme.md; met with α_g = 0.002, next case). Regression bounds only:
     CHECK(r.rms_speed <= 2e-2);
     CHECK(r.max_speed <= 5e-2);
+    CHECK(r.guarded == 0);
+    CHECK(r.min_signed_distance > 0.0);
+  }
+  TEST_CASE("hydrostatic tank with a 60 degree incline for 40 sqrt(H/g), 2D, alpha_g = 0.002: issue #4 criteria met") {
+    // The residual motion of the case above is Tanaka's shifting (eqs. 93–100): with it off the tank stays at
+    // rest to 2e-12 √(gH). Eq. 93 shifts a particle only when |g_i − x_i| > α_g L_i; the paper's table lists α_g
+    // as a user-defined parameter (recommended 0.001). Beside the incline the lattice cut by the wall trips
+    // α_g = 0.001 (and 0.0015: RMS 6.0e-3) from t ≈ 1 s and the rearrangement that follows does not settle;
+    // from α_g = 0.002 the shifting stays idle at rest (measured RMS 1.5e-5, 1.6e-5, 2.0e-5 √(gH) for α_g =
+    // 0.002, 0.003, 0.005; at L = 5 mm with 0.003: 1.3e-5). Not the default: the dam break's opt-in
+    // configurations are chaotic in it (docs/lsmps_scheme.md).
+    const auto r = check_long_hydrostatic<2>(60.0, 0.01, 0.002);
+    CHECK(r.max_bin_error <= 0.02);  // issue #4: 2 % of ρgH per bin below the top two layers
+    CHECK(r.rms_speed <= 1e-3);      // issue #4
+    CHECK(r.max_speed <= 1e-2);      // issue #4
     CHECK(r.guarded == 0);
     CHECK(r.min_signed_distance > 0.0);
   }
