@@ -44,20 +44,16 @@ template <class Sim>
 double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
   const auto& st = sim.state();
   const auto& fl = st.flags();
-  const double re = sim.params().op.re_ratio * L;
   thread_local std::vector<index_t> cand;
   thread_local std::vector<double> w;
-  cand.clear();
-  bool near = false;
-  for (index_t j = 0; j < st.n_real(); ++j) {
-    if (fl[static_cast<std::size_t>(j)] & flag::isolated) continue;
-    const double r = (st.x().col(j) - q).norm();
-    if (r >= re) continue;
-    cand.push_back(j);
-    near = near || r <= 1.5 * std::sqrt(st.template get<field::volume>()[j]);  // 2D: L = √V
-  }
-  if (!near || !io::lsmps_b1_interpolation<2>{}.weights(st.x(), q, re, cand, w))
-    return std::numeric_limits<double>::quiet_NaN();
+  const auto counted = [&](index_t j) { return (fl[static_cast<std::size_t>(j)] & flag::isolated) == 0; };
+  const bool ok = io::point_weights(st, q, sim.params().op.re_ratio * L, counted, io::lsmps_b1_interpolation<2>{},
+                                    cand, w);
+  const auto& V = st.template get<field::volume>();
+  const bool near = std::any_of(cand.begin(), cand.end(), [&](index_t j) {
+    return (st.x().col(j) - q).norm() <= 1.5 * std::sqrt(V[j]);  // 2D: L = √V
+  });
+  if (!ok || !near) return std::numeric_limits<double>::quiet_NaN();
   const auto& P = st.template get<field::pressure>();
   double v = 0.0;
   for (std::size_t k = 0; k < cand.size(); ++k) v += w[k] * P[cand[k]];

@@ -107,6 +107,20 @@ class kernel_interpolation final {
   }
 };
 
+/// \brief The weights c for a value at q (φ(q) ≈ Σ_k c_k φ_{cand_k}): cand = the real particles j with accept(j)
+/// and |x_j − q| < re, in index order; false when `interp` refuses the neighbourhood (too few or degenerate).
+/// Used by probe_set and by runners that sample a point themselves.
+template <ParticleState State, class Interp, class Accept>
+  requires PointInterpolation<Interp, State::dim> && std::predicate<const Accept&, index_t>
+bool point_weights(const State& s, const vec<State::dim>& q, double re, const Accept& accept, const Interp& interp,
+                   std::vector<index_t>& cand, std::vector<double>& c) {
+  cand.clear();
+  const double re2 = re * re;
+  for (index_t j = 0; j < s.n_real(); ++j)
+    if (accept(j) && (s.x().col(j) - q).squaredNorm() < re2) cand.push_back(j);
+  return interp.weights(s.x(), q, re, cand, c);
+}
+
 /// A named probe point.
 template <int D>
 struct probe_point {
@@ -141,13 +155,9 @@ class probe_set {
     std::vector<double> row{t, static_cast<double>(step)};
     std::vector<index_t> cand;
     std::vector<double> c;
-    const double re2 = re_ * re_;
+    const auto accept = [&](index_t j) { return in_mask(kinds_, s.kinds()[static_cast<std::size_t>(j)]); };
     for (const auto& pr : probes_) {
-      cand.clear();
-      for (index_t j = 0; j < s.n_real(); ++j)
-        if (in_mask(kinds_, s.kinds()[static_cast<std::size_t>(j)]) && (s.x().col(j) - pr.x).squaredNorm() < re2)
-          cand.push_back(j);
-      const bool ok = interp_.weights(s.x(), pr.x, re_, cand, c);
+      const bool ok = point_weights(s, pr.x, re_, accept, interp_, cand, c);
       const double nan = std::numeric_limits<double>::quiet_NaN();
       if constexpr (has_pressure) {
         double p = 0.0;
