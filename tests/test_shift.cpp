@@ -92,8 +92,9 @@ struct shift_case {
   void build() { nl = build_list<D>(x, L, dom); }
   template <class E = exec::seq, class P = all_participate>
   regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {},
-                                      const points<D>* n_wall = nullptr) {
-    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx, n_wall);
+                                      const points<D>* n_wall = nullptr, const points<D>* n_wall2 = nullptr) {
+    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx, n_wall,
+                                                    n_wall2);
   }
 };
 
@@ -312,6 +313,52 @@ TEST_SUITE("tanaka_shift") {
     if (D == 3) CHECK(size > 1e-3 * L0);  // the component along n × n_wall survives
     points<D> bad(D, 3);
     CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &bad), doctest::Contains("n_wall"), mpskit::error);
+  }
+
+  TEST_CASE("regularize: tanaka shift with two wall normals (a 3D edge): only the edge direction survives") {
+    // lsmps_params::shift_second_wall: eq. 99 along both walls of an edge. Interior particles (n = 0) with the
+    // walls x = 0 and y = 0: δx must be along z exactly (both components removed); with a random n as well,
+    // nothing survives (three independent directions in 3D). Random unit normals for the second part, so the
+    // Gram–Schmidt steps matter.
+    constexpr int D = 3;
+    const std::uint64_t seed = test_seed() + 7;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    shift_case<D> c(lattice<D>(7, 7, 0.2, rng));
+    std::normal_distribution<double> N(0.0, 1.0);
+    points<D> w1(D, c.x.cols()), w2(D, c.x.cols());
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      w1.col(i) = vec<D>(1.0, 0.0, 0.0);
+      w2.col(i) = vec<D>(0.0, 1.0, 0.0);
+      c.tangential[static_cast<std::size_t>(i)] = 1;
+      c.grad_c.col(i) = 30.0 * vec<D>(N(rng), N(rng), N(rng));
+    }
+    c.build();
+    regularize::tanaka_shift_params p;
+    p.alpha_S = 1e6;
+    c.run(p, exec::seq{}, all_participate{}, &w1, &w2);
+    double off = 0.0, along = 0.0;
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      off = std::max({off, std::abs(c.dx(0, i)), std::abs(c.dx(1, i))});
+      along = std::max(along, std::abs(c.dx(2, i)));
+    }
+    MESSAGE("edge: max |dx_x|, |dx_y| = " << off / L0 << " L, max |dx_z| = " << along / L0 << " L");
+    CHECK(off == 0.0);            // (I − e_x⊗e_x)(I − e_y⊗e_y) removes both components exactly
+    CHECK(along > 1e-3 * L0);     // the edge direction is free
+    for (index_t i = 0; i < c.x.cols(); ++i) {  // random n, random walls: nothing left
+      vec<D> a(N(rng), N(rng), N(rng)), b(N(rng), N(rng), N(rng)), d(N(rng), N(rng), N(rng));
+      c.n.col(i) = a.normalized();
+      w1.col(i) = b.normalized();
+      w2.col(i) = d.normalized();
+    }
+    c.run(p, exec::seq{}, all_participate{}, &w1, &w2);
+    double size = 0.0;
+    for (index_t i = 0; i < c.x.cols(); ++i) size = std::max(size, c.dx.col(i).norm());
+    CHECK(size <= 1e-13 * L0);  // three independent constraints in 3D: rounding only
+    points<D> bad(D, 3);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &w1, &bad), doctest::Contains("n_wall2"), mpskit::error);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, nullptr, &w2), doctest::Contains("n_wall2"),
+                         mpskit::error);
   }
 
   TEST_CASE("regularize: tanaka shift at a contact line: the printed eq. 99 freezes an overlapping pair, wall_only separates it") {

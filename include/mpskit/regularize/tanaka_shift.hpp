@@ -116,6 +116,8 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 /// - n_wall (optional, ≥ m columns, unit or 0): a second normal for tangential_only particles near a
 ///   wall (the wall normal of their imaginary copy); eq. 99 then removes the components along n and
 ///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
+/// - n_wall2 (optional, ≥ m columns, unit or 0): the normal of a second wall the particle is copied onto (a 3D
+///   edge or corner, a 2D corner); eq. 99 removes its component too (ours: Tanaka's eq. 99 has one normal).
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
   requires std::predicate<const Participates&, index_t>
@@ -126,7 +128,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
                                               const std::vector<std::uint8_t>& tangential_only,
                                               const std::vector<std::uint8_t>& active,
                                               const tanaka_shift_params& p, points<D>& dx,
-                                              const points<D>* n_wall = nullptr) {
+                                              const points<D>* n_wall = nullptr,
+                                              const points<D>* n_wall2 = nullptr) {
   p.validate();
   const index_t rows = x.cols();
   const index_t m = static_cast<index_t>(active.size());
@@ -137,6 +140,9 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   if (n.cols() < m) fail("tanaka_shift: n has ", n.cols(), " columns, need >= active.size() = ", m);
   if (n_wall && n_wall->cols() < m)
     fail("tanaka_shift: n_wall has ", n_wall->cols(), " columns, need >= active.size() = ", m);
+  if (n_wall2 && !n_wall) fail("tanaka_shift: n_wall2 given without n_wall");
+  if (n_wall2 && n_wall2->cols() < m)
+    fail("tanaka_shift: n_wall2 has ", n_wall2->cols(), " columns, need >= active.size() = ", m);
   if (static_cast<index_t>(tangential_only.size()) < m)
     fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
   check_diameters("tanaka_shift", L, rows);
@@ -221,23 +227,33 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
         any = true;
       }
       if (n_wall) {
-        // Second constraint (a surface particle next to a wall, or a concave corner): eq. 99 applied
-        // to the part of the wall normal orthogonal to n (Gram–Schmidt), so δx ⊥ n and δx ⊥ n_wall.
-        vec<D> t2 = n_wall->col(i);
-        if (any) t2 -= ni.dot(t2) * ni;
-        const double t2n = t2.norm();
-        if (t2n > 1e-8) {  // else n_wall is 0 or parallel to n: nothing more to remove
-          t2 /= t2n;
-          d -= t2.dot(d) * t2;
-          any = true;
+        // Further constraints (a surface particle next to a wall, a concave corner, a 3D edge): eq. 99
+        // applied to the part of each wall normal orthogonal to the directions already removed
+        // (Gram–Schmidt), so δx ⊥ n, δx ⊥ n_wall and δx ⊥ n_wall2.
+        vec<D> basis[2];
+        int nb = 0;
+        if (any) basis[nb++] = ni;
+        for (const points<D>* nw : {n_wall, n_wall2}) {
+          if (!nw || nb == D) continue;
+          vec<D> t = nw->col(i);
+          for (int b = 0; b < nb; ++b) t -= basis[b].dot(t) * basis[b];
+          const double tn = t.norm();
+          if (tn > 1e-8) {  // else 0 or in the span already: nothing more to remove
+            t /= tn;
+            d -= t.dot(d) * t;
+            any = true;
+            if (nb < 2) basis[nb] = t;
+            ++nb;
+          }
         }
       }
       (any ? projected[k] : unprojected[k]) = 1;
-      if (split) {  // δx** keeps every direction but into a wall (n_wall points into the fluid)
-        if (n_wall && n_wall->col(i).squaredNorm() > 0.0) {
-          const vec<D> nw = n_wall->col(i);
-          const double into = nw.dot(dp);
-          if (into < 0.0) dp -= into * nw;
+      if (split) {  // δx** keeps every direction but into a wall (each n_wall points into the fluid)
+        for (const points<D>* nw : {n_wall, n_wall2}) {
+          if (!nw || nw->col(i).squaredNorm() == 0.0) continue;
+          const vec<D> w = nw->col(i);
+          const double into = w.dot(dp);
+          if (into < 0.0) dp -= into * w;
         }
         d += dp;
       }

@@ -166,6 +166,10 @@ struct lsmps_params {
   wall::guard_params guard{};           ///< ε of the wall-crossing guard
   /// α_g, α_T, α_p, α_S (eqs. 93–100); the penalty of eq. 96 acts per pair (a deviation, docs/solver.md)
   regularize::tanaka_shift_params shift = pair_penalty_shift();
+  /// Eq. 99 also along a second wall a particle is copied onto (a 3D edge or corner, a 2D corner; ours, opt-in,
+  /// docs/lsmps_scheme.md deviation 12): the 3D tanks at rest stay quiet (the 60° prism meets issue #4's
+  /// criteria), but as the default the 3D duct with pressure faces and a 3D tank refined along an edge fail.
+  bool shift_second_wall = false;
   /// ε of the velocity filter in the one-sided band (particles with a wall copy, a pressure-boundary or a
   /// free-surface particle among their neighbours, or a neighbour of another size beyond size_ratio; a
   /// deviation, regularize/boundary_filter.hpp): with the
@@ -738,10 +742,13 @@ class lsmps_semi_implicit {
       tangential[static_cast<std::size_t>(i)] = surface_[static_cast<std::size_t>(i)];
     }
     wall_normal_.setZero(D, n);
+    wall_normal2_.setZero(D, n);
     for (index_t k = n; k < nc_; ++k) {  // within α_w L of a wall: tangential to the wall too (eq. 99)
       const index_t i = parent(k);
       tangential[static_cast<std::size_t>(i)] = 1;
       if (wall_normal_.col(i).isZero(0.0)) wall_normal_.col(i) = normal_.col(k);
+      else if (wall_normal2_.col(i).isZero(0.0) && std::abs(wall_normal_.col(i).dot(normal_.col(k))) < 1.0 - 1e-6)
+        wall_normal2_.col(i) = normal_.col(k);  // a second wall (an edge, a corner): tangential to it too (ours)
     }
     // Within 2 L_i of a pressure-boundary particle: no shifting (a deviation; Tanaka is silent). Unrestricted,
     // it pushed the particles beside an outflow face into the gaps that removals leave (the 20 mm channel
@@ -754,7 +761,8 @@ class lsmps_semi_implicit {
         active[static_cast<std::size_t>(i)] = 0;
       }
     const auto rep = regularize::tanaka_shift_displacement(exec::par{}, x, L_, nl_, participates, grad_c, normal_,
-                                                           tangential, active, p_.shift, dx_, &wall_normal_);
+                                                           tangential, active, p_.shift, dx_, &wall_normal_,
+                                                           p_.shift_second_wall ? &wall_normal2_ : nullptr);
     c_.shift_limited += static_cast<long>(rep.limited);
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
     for_each_particle(exec::par{}, n, [&](index_t i) {
@@ -1126,7 +1134,7 @@ class lsmps_semi_implicit {
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
-  points<D> ut_, xold_, normal_, wall_normal_, dx_, filter_du_;
+  points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_;
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
