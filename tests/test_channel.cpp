@@ -598,7 +598,7 @@ TEST_SUITE("poiseuille_multires") {
     c.dt = 0.1 * Lf * Lf / (c.mu / c.rho);
     // To 0.2 s in CI (two time constants H²/(π²ν) = 0.1 s of the slowest mode; the label's budget): the profile
     // is checked against the start-up series, the analytic solution at every time. The 0.5 s run (steady
-    // profile 0.74 %) is in docs/validation.md and the reporter.
+    // profile 0.74 %) is in docs/resolution.md.
     c.t_end = 0.2;
     c.probe_times = {0.05, 0.1};
     c.params.resolution.target_diameter = [=](const vec<2>& x) {

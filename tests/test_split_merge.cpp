@@ -150,7 +150,7 @@ mat<D> zero_grad(index_t) {
   return mat<D>::Zero();
 }
 
-/// Min over neighbour pairs within 1.5 L_ij of r_ij / L_ij, L_ij = (L_i + L_j)/2, 2D diameters √V (issue #9's
+/// Min over neighbour pairs within 1.5 L_ij of r_ij / L_ij, L_ij = (L_i + L_j)/2, diameters V^(1/D) (issue #9's
 /// clustering measure).
 template <class State, int D>
 double min_pair_ratio(const State& st, const search::domain<D>& dom) {

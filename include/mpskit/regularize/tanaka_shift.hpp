@@ -19,6 +19,7 @@
 ///   and is not a parameter here.
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <concepts>
 #include <cstdint>
@@ -230,11 +231,11 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
         // Further constraints (a surface particle next to a wall, a concave corner, a 3D edge): eq. 99
         // applied to the part of each wall normal orthogonal to the directions already removed
         // (Gram–Schmidt), so δx ⊥ n, δx ⊥ n_wall and δx ⊥ n_wall2.
-        vec<D> basis[2];
+        std::array<vec<D>, D> basis;  // orthonormal directions removed so far
         int nb = 0;
         if (any) basis[nb++] = ni;
         for (const points<D>* nw : {n_wall, n_wall2}) {
-          if (!nw || nb == D) continue;
+          if (!nw || nb == D) continue;  // D directions removed: δx = 0 already
           vec<D> t = nw->col(i);
           for (int b = 0; b < nb; ++b) t -= basis[b].dot(t) * basis[b];
           const double tn = t.norm();
@@ -242,8 +243,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
             t /= tn;
             d -= t.dot(d) * t;
             any = true;
-            if (nb < 2) basis[nb] = t;
-            ++nb;
+            basis[nb++] = t;
           }
         }
       }

@@ -742,12 +742,14 @@ class lsmps_semi_implicit {
       tangential[static_cast<std::size_t>(i)] = surface_[static_cast<std::size_t>(i)];
     }
     wall_normal_.setZero(D, n);
-    wall_normal2_.setZero(D, n);
+    const bool second = p_.shift_second_wall;
+    if (second) wall_normal2_.setZero(D, n);
     for (index_t k = n; k < nc_; ++k) {  // within α_w L of a wall: tangential to the wall too (eq. 99)
       const index_t i = parent(k);
       tangential[static_cast<std::size_t>(i)] = 1;
       if (wall_normal_.col(i).isZero(0.0)) wall_normal_.col(i) = normal_.col(k);
-      else if (wall_normal2_.col(i).isZero(0.0) && std::abs(wall_normal_.col(i).dot(normal_.col(k))) < 1.0 - 1e-6)
+      else if (second && wall_normal2_.col(i).isZero(0.0) &&
+               std::abs(wall_normal_.col(i).dot(normal_.col(k))) < 1.0 - 1e-6)
         wall_normal2_.col(i) = normal_.col(k);  // a second wall (an edge, a corner): tangential to it too (ours)
     }
     // Within 2 L_i of a pressure-boundary particle: no shifting (a deviation; Tanaka is silent). Unrestricted,
@@ -762,7 +764,7 @@ class lsmps_semi_implicit {
       }
     const auto rep = regularize::tanaka_shift_displacement(exec::par{}, x, L_, nl_, participates, grad_c, normal_,
                                                            tangential, active, p_.shift, dx_, &wall_normal_,
-                                                           p_.shift_second_wall ? &wall_normal2_ : nullptr);
+                                                           second ? &wall_normal2_ : nullptr);
     c_.shift_limited += static_cast<long>(rep.limited);
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
     for_each_particle(exec::par{}, n, [&](index_t i) {
