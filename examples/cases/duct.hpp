@@ -9,11 +9,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <type_traits>
 #include <vector>
 
 #include "mpskit/boundary/pressure.hpp"
+#include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
 
 namespace mpskit::cases {
@@ -26,6 +28,11 @@ struct duct_scene : lsmps_defaults<3> {
 /// Pressure-driven duct.
 struct duct_pressure_scene : duct_scene {
   using boundary = mpskit::boundary::pressure;
+};
+/// Pressure-driven duct with particle splitting and merging (issue #9 item 3: pressure boundaries in 3D); the
+/// target diameter is params.resolution.target_diameter.
+struct duct_pressure_multires_scene : duct_pressure_scene {
+  using resolution = mpskit::resolution::split_merge<>;
 };
 
 /// The start-up series above.
@@ -53,6 +60,9 @@ struct duct_config {
   double G = 1000.0, rho = 1000.0, mu = 0.1;
   double t_end = 0.05;   ///< run end (s); the slowest mode's time constant W²/(2π²ν) = 8 ms at W = 4 mm
   bool pressure = true;  ///< pressure faces (else periodic in x with the body force)
+  double L_fine = 1e300; ///< smallest diameter splitting can make (m); only bounds the fixed Δt
+  /// Boundary-particle spacing on the faces (empty: L); a multi-resolution run passes its target diameter.
+  std::function<double(const vec<3>&)> boundary_spacing;
   scheme::lsmps_params<3> params{};
   boundary::pressure_params boundary{};
 };
@@ -63,6 +73,9 @@ struct duct_result {
   long steps = 0, guarded = 0, inflow = 0, outflow = 0;
   double ledger_error = 0.0, wall_seconds = 0.0;
   index_t particles = 0, particles_end = 0;
+  long splits = 0, merges = 0;        ///< resolution events (scenes with split_merge)
+  double L_min = 0.0, L_max = 0.0;    ///< smallest and largest fluid diameter V^(1/3) at the end (m)
+  double u_max = 0.0;                 ///< largest |u| at the end (m/s)
 };
 
 /// Four walls y = 0, y = W, z = 0, z = W for x in [x0, x1], normals into the duct.
@@ -113,7 +126,8 @@ duct_result run_duct_impl(const duct_config& c) {
     p.domain.hi = vec<3>(ell, W, W);
   }
   p.time.mode = scheme::time_step_mode::fixed;
-  p.time.dt_fixed = p.time.dt_max = 0.1 * L * L / p.nu * (1.0 - 1e-12);  // the viscous limit (rounded below)
+  const double Ldt = std::min(L, c.L_fine);
+  p.time.dt_fixed = p.time.dt_max = 0.1 * Ldt * Ldt / p.nu * (1.0 - 1e-12);  // the viscous limit (rounded below)
   geometry::polygon_options<3> opt;
   opt.fluid_seed = vec<3>(0.5 * ell, 0.5 * W, 0.5 * W);
   const geometry::polygon_set<3> walls(duct_walls(W, -4.0 * L, ell + 4.0 * L), opt);
@@ -158,12 +172,23 @@ duct_result run_duct_impl(const duct_config& c) {
     r.steps = sim.counters().steps;
     r.guarded = sim.counters().guarded;
     r.particles_end = st.n_real();
+    r.splits = sim.counters().splits;
+    r.merges = sim.counters().merges;
+    const auto& V = st.template get<field::volume>();
+    r.L_min = 1e300;
+    for (index_t i = 0; i < st.n_real(); ++i) {
+      r.L_min = std::min(r.L_min, std::cbrt(V[i]));
+      r.L_max = std::max(r.L_max, std::cbrt(V[i]));
+      r.u_max = std::max(r.u_max, st.u().col(i).norm());
+    }
   };
-  if constexpr (std::is_same_v<Scene, duct_pressure_scene>) {
+  if constexpr (requires { typename Scene::boundary; }) {
+    const auto spacing = [&](const vec<3>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
     const boundary::pressure_boundary<3> pb(geometry::polygon_set<3>(duct_faces(W, ell)),
-                                            {c.G * ell, c.G * ell, 0.0, 0.0}, L, c.boundary);
-    // inflow creates particles of the boundary particles' diameter L_p = √(A/m²) ≤ L (0.47 mm at L = 0.5 mm)
-    const double Lmin = std::min(L, pb.diameters().minCoeff());
+                                            {c.G * ell, c.G * ell, 0.0, 0.0}, spacing, c.boundary);
+    // inflow creates particles of the boundary particles' diameter L_p = √(A/m²) ≤ L (0.47 mm at L = 0.5 mm);
+    // with splitting, the children's diameter 2^(-1/3) L_min of the target (c.L_fine) bounds Δt as well
+    const double Lmin = std::min({L, pb.diameters().minCoeff(), c.L_fine});
     p.time.dt_fixed = p.time.dt_max = 0.1 * Lmin * Lmin / p.nu * (1.0 - 1e-12);
     simulation<Scene> sim(p, std::move(s), &walls, &pb);
     const auto volume = [&] {
