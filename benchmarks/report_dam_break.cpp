@@ -141,32 +141,51 @@ struct lsmps_order3 : lsmps_defaults<2> {
   using op = mpskit::op::lsmps_a<2, 3, kernel>;
 };
 
-/// Tanaka's dam break with the LSMPS scheme at L = h0/N; `walls`: parent_gradient (the defaults), neumann_points
-/// (copy_row = neumann_points) or two_point_wall_only (copy_two_point = 1 and shift.projection = wall_only).
+/// The LSMPS wall variants the reporter runs: parent_gradient (the defaults), neumann_points (copy_row =
+/// neumann_points) and two_point_wall_only (copy_two_point = 1 and shift.projection = wall_only).
+struct lsmps_wall_variant {
+  std::string name;   ///< as given to --lsmps-walls
+  std::string tag;    ///< suffix of the configuration name
+  std::string label;  ///< suffix of the plot series
+  void (*apply)(scheme::lsmps_params<2>&);
+};
+inline const std::vector<lsmps_wall_variant>& lsmps_wall_variants() {
+  static const std::vector<lsmps_wall_variant> v{
+      {"parent_gradient", "", "", [](scheme::lsmps_params<2>&) {}},
+      {"neumann_points", "-np", ", Neumann-point walls",
+       [](scheme::lsmps_params<2>& p) { p.copy_row = scheme::copy_row_kind::neumann_points; }},
+      {"two_point_wall_only", "-tp", ", two-point copy rows + wall-only shifting", [](scheme::lsmps_params<2>& p) {
+         p.copy_two_point = 1.0;
+         p.shift.projection = regularize::penalty_projection::wall_only;
+       }}};
+  return v;
+}
+/// The variant named `name`; an unknown name is refused with the accepted list.
+inline const lsmps_wall_variant& lsmps_wall_variant_named(const std::string& name) {
+  std::string accepted;
+  for (const lsmps_wall_variant& w : lsmps_wall_variants()) {
+    if (w.name == name) return w;
+    accepted += (accepted.empty() ? "" : ", ") + w.name;
+  }
+  fail("report_dam_break: --lsmps-walls entry '", name, "' (accepted: ", accepted, ")");
+}
+
+/// Tanaka's dam break with the LSMPS scheme at L = h0/N with the wall variant `walls`.
 /// Besides the front: the probe at (195, 5) mm sampled every step (cases::measure_impact; window 10 ms after
 /// the probe gets wet, 2 ms moving average, every 100 steps as Tanaka sampled), NaN when the run did not
 /// reach the end of the window.
 template <class Scene>
 bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data,
-                                const std::string& walls = "parent_gradient") {
+                                const lsmps_wall_variant& walls) {
   cases::tanaka_dam_break_config cfg;
   cfg.L = cfg.column_width / N;
   bench::configuration c;
-  const std::string tag = walls == "neumann_points" ? "-np" : walls == "two_point_wall_only" ? "-tp" : "";
-  c.name = "lsmps-" + std::to_string(order) + tag + " h0/" + std::to_string(N);
-  c.series = "LSMPS-A order " + std::to_string(order) +
-             (walls == "neumann_points"        ? ", Neumann-point walls"
-              : walls == "two_point_wall_only" ? ", two-point copy rows + wall-only shifting"
-                                               : "") +
-             " (Tanaka's vessel)";
+  c.name = "lsmps-" + std::to_string(order) + walls.tag + " h0/" + std::to_string(N);
+  c.series = "LSMPS-A order " + std::to_string(order) + walls.label + " (Tanaka's vessel)";
   c.l0 = cfg.L;
   const std::string c_name = c.name;
   scheme::lsmps_params<2> p;
-  if (walls == "neumann_points") p.copy_row = scheme::copy_row_kind::neumann_points;
-  if (walls == "two_point_wall_only") {
-    p.copy_two_point = 1.0;
-    p.shift.projection = regularize::penalty_projection::wall_only;
-  }
+  walls.apply(p);
   c.run = [cfg, data, T_end, c_name, p]() {
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true);
     if (r.failed) std::cout << "  " << c_name << ": failed at T = " << r.T_failed << ": " << r.failure << "\n";
@@ -206,7 +225,7 @@ int main(int argc, char** argv) try {
   solvers.push_back("cholmod");
 #endif
   std::vector<int> lsmps_levels{20, 25}, lsmps_orders{2};
-  std::vector<std::string> lsmps_walls{"parent_gradient"};
+  std::vector<const lsmps_wall_variant*> lsmps_walls{&lsmps_wall_variant_named("parent_gradient")};
   int reps = 3;
   double T_end = 3.0, lsmps_T_end = -1.0;
   std::string out = "benchmarks/results", data_dir = MPSKIT_DAM_BREAK_DATA_DIR;
@@ -244,11 +263,8 @@ int main(int argc, char** argv) try {
         lsmps_orders.push_back(q);
       }
     } else if (a == "--lsmps-walls") {
-      lsmps_walls = split(next());
-      for (const std::string& w : lsmps_walls)
-        if (w != "parent_gradient" && w != "neumann_points" && w != "two_point_wall_only")
-          fail("report_dam_break: --lsmps-walls entry '", w,
-               "' (accepted: parent_gradient, neumann_points, two_point_wall_only)");
+      lsmps_walls.clear();
+      for (const std::string& w : split(next())) lsmps_walls.push_back(&lsmps_wall_variant_named(w));
     } else if (a == "--lsmps-T-end") {
       lsmps_T_end = std::stod(next());
       if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
@@ -283,11 +299,11 @@ int main(int argc, char** argv) try {
       }
     }
   if (lsmps_T_end < 0.0) lsmps_T_end = T_end;
-  for (const std::string& w : lsmps_walls)
+  for (const lsmps_wall_variant* w : lsmps_walls)
     for (int q : lsmps_orders)
       for (int N : lsmps_levels) {
-        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, w));
-        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, w));
+        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, *w));
+        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, *w));
       }
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);
