@@ -693,41 +693,35 @@ TEST_SUITE("poiseuille") {
 TEST_SUITE("poiseuille_multires") {
   TEST_CASE("channel: 3D square duct through pressure faces, split near the walls (split/merge with pressure boundaries in 3D)") {
     // Issue #9 item 3 in 3D: the duct of the poiseuille label (W = 4 mm, ℓ = 8 mm, L = 0.5 mm, Δp = 8 Pa, μ = 0.1
-    // Pa s) with the target L* = 0.75 L within 0.75 mm of a wall, a linear ramp to 1.05 L at 1.5 mm (ours): the
-    // particles of the outer band split once (β_s L = 0.897 L > 0.75 L; children 2^(-1/3) L = 0.397 mm), the core
-    // stays coarse. The faces carry the target spacing (boundary particles L_p = 0.354 mm: each face triangle is
-    // cut at the smallest L* of its corners). With the uniform 0.47 mm face spacing of the single-resolution case
-    // instead, the refined flow lags by 3.8 % at 0.02 s: the mid-length pressure gradient is 4.4 % low, the extra
-    // drop sits in the slabs beside the faces (measured 2026-11-26). To 0.02 s in CI (2.5 time constants
-    // W²/(2π²ν) = 8 ms); 0.05 s in docs/resolution.md. ILUT drop tolerance 1e-3 (the duct's 1e-4 gives the same
-    // numbers and takes 1.25× longer: the 3D mixed-size factorisation is half the step).
+    // Pa s) refined by cases::refine_duct_walls: target L* = 0.75 L within 0.75 mm of a wall, a linear ramp to
+    // 1.05 L at 1.5 mm (ours): the particles of the outer band split once (β_s L = 0.897 L > 0.75 L; children
+    // 2^(-1/3) L = 0.397 mm), the core stays coarse. The faces carry the target spacing (boundary particles L_p =
+    // 0.354 mm). With the uniform 0.47 mm face spacing of the single-resolution case instead, the refined flow lags
+    // by 3.8 % at 0.02 s: the mid-length pressure gradient is 4.4 % low, the extra drop sits in the slabs beside the
+    // faces (measured 2026-11-26). To 0.02 s in CI (2.5 time constants W²/(2π²ν) = 8 ms); 0.05 s in
+    // docs/resolution.md and `channel --duct-multires`.
     cases::duct_config c;
-    const double L = c.L, W = c.W;
+    const double L = c.L;
     c.t_end = 0.02;
-    c.params.solver.ilut_drop_tolerance = 1e-3;
-    const auto target = [=](const vec<3>& x) {
-      const double d = std::min({x[1], W - x[1], x[2], W - x[2]});
-      return L * (0.75 + std::clamp((d - 0.75e-3) / 0.75e-3, 0.0, 1.0) * (1.05 - 0.75));
-    };
-    c.params.resolution.target_diameter = target;
-    c.boundary_spacing = target;
-    c.L_fine = std::cbrt(0.5) * L;
+    cases::refine_duct_walls(c);
     const auto r = cases::run_duct_impl<cases::duct_pressure_multires_scene>(c);
     std::printf("3D pressure duct multires: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles "
-                "%ld -> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, ledger %.1e, guarded %ld, %.1f s\n",
+                "%ld -> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, ledger %.1e, guarded %ld, |u|max %.4f m/s, %.1f s\n",
                 r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
                 static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.ledger_error,
-                r.guarded, r.wall_seconds);
-    // Refined: every particle of the outer band split once (768 of the 1024 lattice particles measured).
-    CHECK(r.splits > 500);
-    CHECK(r.L_min <= std::cbrt(0.5) * L * (1.0 + 1e-12));  // children (inflow would add L_p = 0.354 mm ones)
+                r.guarded, r.u_max, r.wall_seconds);
+    // Refined: every particle of the outer band (the two rings of the 8 × 8 cross-section, 48 per slab of 16)
+    // split once, and no inflow yet, so the children are the smallest particles.
+    CHECK(r.inflow == 0);
+    CHECK(r.splits == 768);
+    CHECK(r.L_min == doctest::Approx(std::cbrt(0.5) * L).epsilon(1e-12));
     CHECK(r.L_max == doctest::Approx(L).epsilon(1e-12));
     CHECK(r.outflow > 0);
     // Volume: V(t) − V(0) = V_in − V_out through every split and boundary event (splits halve exactly).
     CHECK(r.ledger_error <= 1e-12);
     CHECK(r.guarded == 0);
     // The issue's 3D tolerance against the start-up series (the pipe's 3 %); measured 0.73 % (single resolution
-    // with the uniform faces at this Δt: 1.6 %).
+    // with the uniform faces: 1.59 % at Δt = 1.58e-4 s, the refined run's is 1.25e-4 s).
     CHECK(r.max_error <= 0.03);
   }
 }

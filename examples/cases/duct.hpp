@@ -183,11 +183,12 @@ duct_result run_duct_impl(const duct_config& c) {
     }
   };
   if constexpr (requires { typename Scene::boundary; }) {
+    if (!c.pressure) fail("cases::run_duct_impl: a scene with pressure boundaries needs duct_config::pressure = true");
     const auto spacing = [&](const vec<3>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
     const boundary::pressure_boundary<3> pb(geometry::polygon_set<3>(duct_faces(W, ell)),
                                             {c.G * ell, c.G * ell, 0.0, 0.0}, spacing, c.boundary);
     // inflow creates particles of the boundary particles' diameter L_p = √(A/m²) ≤ L (0.47 mm at L = 0.5 mm);
-    // with splitting, the children's diameter 2^(-1/3) L_min of the target (c.L_fine) bounds Δt as well
+    // with splitting, the smallest diameter splitting can make (c.L_fine) bounds Δt as well
     const double Lmin = std::min({L, pb.diameters().minCoeff(), c.L_fine});
     p.time.dt_fixed = p.time.dt_max = 0.1 * Lmin * Lmin / p.nu * (1.0 - 1e-12);
     simulation<Scene> sim(p, std::move(s), &walls, &pb);
@@ -208,6 +209,23 @@ duct_result run_duct_impl(const duct_config& c) {
     finish(sim);
   }
   return r;
+}
+
+/// Refines c for duct_pressure_multires_scene (issue #9 item 3 in 3D; the function is ours): target L* = 0.75 L within
+/// 1.5 L of a wall (0.75 mm at L = 0.5 mm), a linear ramp to 1.05 L at 3 L, so the outer band splits once (β_s L = 0.897 L > 0.75 L;
+/// children 2^(−1/3) L) and the core stays at L; the faces carry the target spacing (each face triangle is cut at
+/// the smallest L* of its corners: L_p = 0.354 mm at L = 0.5 mm), which is what keeps the face slabs' pressure drop
+/// at the single-resolution level (docs/resolution.md); ILUT drop tolerance 1e-3 (same digits as 1e-4, 1.25× faster).
+inline void refine_duct_walls(duct_config& c) {
+  const double L = c.L, W = c.W;
+  const auto target = [L, W](const vec<3>& x) {
+    const double d = std::min({x[1], W - x[1], x[2], W - x[2]});
+    return L * (0.75 + std::clamp((d - 1.5 * L) / (1.5 * L), 0.0, 1.0) * (1.05 - 0.75));
+  };
+  c.params.resolution.target_diameter = target;
+  c.boundary_spacing = target;
+  c.L_fine = std::cbrt(0.5) * L;
+  c.params.solver.ilut_drop_tolerance = 1e-3;
 }
 
 /// Runs the pressure-driven (c.pressure) or periodic duct.
