@@ -11,6 +11,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/exec.hpp"
@@ -682,6 +683,82 @@ TEST_SUITE("thin_walls") {
     p2.prepare(exec::seq{}, 1.0);  // clearances 0.495 + 0.2 > 0.305 must not skip the image pair
     CHECK_FALSE(p2(1, 2));
     CHECK(p2(0, 1));
+  }
+
+  TEST_CASE_TEMPLATE("walls: the convex shortcut gives the segment test's answer for every pair", T,
+                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+    // wall_visibility's convex shortcut (both ends strictly inside a convex set: visible without the segment
+    // test) against the segment test itself (polygon_set::crosses on the pulled ends) for every pair of a
+    // jittered cloud with its copies: particles near the walls, some beyond them (the crossing guard would put
+    // those back), copies at the concave corners. Non-convex sets (a 2D floor with a step, a 3D tank with a
+    // block on the floor) must not take the shortcut.
+    constexpr int D = T::value;
+    const double L = 0.02;
+    const polygon_set<D> tank = [] {
+      if constexpr (D == 2) return polygon_set<2>(geometry::tank(vec<2>(0, 0), vec<2>(0.3, 0.25)));
+      else return polygon_set<3>(geometry::tank(vec<3>(0, 0, 0), vec<3>(0.2, 0.15, 0.2)));
+    }();
+    std::mt19937_64 rng(test_seed());
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    points<D> x(D, 400);
+    for (index_t i = 0; i < x.cols(); ++i)
+      for (int a = 0; a < D; ++a) {
+        const double hi = D == 2 ? (a == 0 ? 0.3 : 0.25) : (a == 1 ? 0.15 : 0.2);
+        x(a, i) = -0.05 * L + u01(rng) * (hi + 0.1 * L);  // a few just beyond a wall
+      }
+    Eigen::VectorXd Lv = Eigen::VectorXd::Constant(x.cols(), L);
+    const index_t n_real = x.cols();
+    std::vector<wall::imaginary_copy<D>> c;
+    wall::make_imaginary<D>(x, Lv, n_real, all, tank, {}, c);
+    REQUIRE(c.size() > 50);
+    wall::write_ghosts<D>(c, n_real, x, Lv);
+    wall::wall_visibility<D> vis{&tank, &x, n_real, &c};
+    vis.prepare(exec::seq{}, 3.1 * L);
+    REQUIRE(vis.inside.size() == static_cast<std::size_t>(x.cols()));  // a tank is convex: the shortcut is on
+    wall::wall_visibility<D> exact = vis;
+    exact.clearance.clear();
+    exact.inside.clear();  // the segment test alone
+    const auto end = [&](index_t k) {
+      return k < n_real ? vec<D>(x.col(k))
+                        : vec<D>(x.col(k) + 1e-6 * c[static_cast<std::size_t>(k - n_real)].L *
+                                                c[static_cast<std::size_t>(k - n_real)].normal);
+    };
+    long pairs = 0, by_shortcut = 0, hidden = 0, differ = 0;
+    for (index_t i = 0; i < x.cols(); ++i)
+      for (index_t j = i + 1; j < x.cols(); ++j) {
+        if ((x.col(i) - x.col(j)).norm() >= 3.1 * L) continue;
+        ++pairs;
+        const bool v = vis(i, j), e = exact(i, j);
+        CHECK(e == !tank.crosses(end(i), end(j)));  // exact is the segment test
+        if (vis.inside[static_cast<std::size_t>(i)] && vis.inside[static_cast<std::size_t>(j)]) ++by_shortcut;
+        if (!e) ++hidden;
+        if (v != e) ++differ;
+      }
+    MESSAGE(D << "D: " << pairs << " pairs, " << by_shortcut << " by the shortcut, " << hidden << " hidden");
+    CHECK(differ == 0);
+    CHECK(by_shortcut > pairs / 2);  // the shortcut does the work ...
+    CHECK(hidden > 0);               // ... and the cloud has pairs the walls hide (ends outside the tank)
+    // Not convex: the shortcut stays off.
+    if constexpr (D == 2) {
+      const polygon_set<2> step(polyline({vec<2>(0.0, 1.0), vec<2>(0.0, 0.0), vec<2>(0.5, 0.0), vec<2>(0.5, 0.1),
+                                          vec<2>(1.0, 0.1), vec<2>(1.0, 1.0)}));
+      wall::wall_visibility<2> vs{&step, &x, n_real, &c};
+      vs.prepare(exec::seq{}, 3.1 * L);
+      CHECK(vs.inside.empty());
+    } else {
+      polygon_mesh<3> m = geometry::tank(vec<3>(0, 0, 0), vec<3>(0.2, 0.15, 0.2));
+      polygon_mesh<3> flipped = geometry::box(vec<3>(0.05, 0.05, 0.0), vec<3>(0.1, 0.1, 0.05),
+                                              geometry::fluid_side::outside);
+      const index_t nv = m.vertices.cols(), ne = m.elements.cols();
+      m.vertices.conservativeResize(3, nv + flipped.vertices.cols());
+      m.vertices.rightCols(flipped.vertices.cols()) = flipped.vertices;
+      m.elements.conservativeResize(3, ne + flipped.elements.cols());
+      m.elements.rightCols(flipped.elements.cols()) = flipped.elements.array() + nv;
+      const polygon_set<3> with_block(m);
+      wall::wall_visibility<3> vs{&with_block, &x, n_real, &c};
+      vs.prepare(exec::seq{}, 3.1 * L);
+      CHECK(vs.inside.empty());  // a block on the floor: the tank's corners lie behind its faces
+    }
   }
 
   TEST_CASE("walls: 3D double-sided plate hides the other side") {

@@ -26,7 +26,7 @@ namespace mpskit::wall {
 /// particles [0, n_real), then the imaginary copies in the order of `copies`). Symmetric in (i, j).
 /// Aggregate: `wall_visibility<D>{&walls, &x, n_real, &copies}`; call prepare() once the positions are
 /// final (it checks the sizes and stores per-particle wall clearances that skip the segment test for
-/// pairs that cannot reach a wall).
+/// pairs that cannot reach a wall, and, for a convex polygon_set, which columns lie strictly inside it).
 template <int D, class Walls = geometry::polygon_set<D>>
 struct wall_visibility {
   const Walls* walls = nullptr;  ///< polygon_set<D> or wall_collection<D>
@@ -37,6 +37,14 @@ struct wall_visibility {
   double pull = 1e-6;                      ///< a copy's end is moved pull·L′ along its normal (range (0, 0.01])
   index_t other_ghosts = 0;  ///< ghosts after the copies, tested at their own positions (pressure-boundary particles)
   std::vector<double> clearance{};          ///< lower bounds of the wall distance per column (prepare())
+  /// Convex shortcut (prepare(), polygon_set only): when every vertex of the set lies on the fluid side of
+  /// every element's plane, the fluid side K = ∩ {y : (y − v_e)·n_e ≥ 0} is convex and holds every element on
+  /// its boundary, so a segment whose ends are both strictly inside K touches no element. inside[c] != 0 marks
+  /// such columns (for a copy: its pulled end). Empty when the set is not convex (or has more than
+  /// convex_max_elements elements): the segment test decides. Same answers as the test, cheaper (tanks,
+  /// ducts: most pairs are within reach of a wall, so the clearances do not prune them).
+  std::vector<unsigned char> inside{};
+  static constexpr index_t convex_max_elements = 256;  ///< larger sets are not checked for convexity
 
   /// Checks the sizes (copies must match the ghost range) and computes clearances: the distance of each
   /// real particle to the walls, capped at max_distance (any value is correct; the largest pair distance
@@ -62,6 +70,27 @@ struct wall_visibility {
         d = walls->query(xi, max_distance).distance;
       clearance[static_cast<std::size_t>(i)] = std::isfinite(d) ? d : max_distance;
     });
+    inside.clear();
+    if constexpr (std::is_same_v<Walls, geometry::polygon_set<D>>) {
+      const index_t ne = walls->size();
+      if (ne == 0 || ne > convex_max_elements || walls->vertices().cols() > D * convex_max_elements) return;
+      // Convexity: every vertex on the fluid side of every element's plane, to a rounding tolerance.
+      const double tol = 1e-12 * walls->scale();
+      const points<D>& v = walls->vertices();
+      for (index_t el = 0; el < ne; ++el) {
+        const vec<D> q = walls->element(el).col(0), n = walls->element_normal(el);
+        for (index_t k = 0; k < v.cols(); ++k)
+          if ((v.col(k) - q).dot(n) < -tol) return;
+      }
+      inside.assign(static_cast<std::size_t>(x->cols()), 0);
+      for_each_particle(e, x->cols(), [&](index_t c) {
+        const vec<D> y = end_point(c, x->col(c));
+        bool in = y.allFinite();
+        for (index_t f = 0; in && f < ne; ++f)
+          in = (y - walls->element(f).col(0)).dot(walls->element_normal(f)) > tol;
+        inside[static_cast<std::size_t>(c)] = in ? 1 : 0;
+      });
+    }
   }
 
   /// True unless the segment between the two particles (a copy's end pulled off its wall) touches a wall.
@@ -77,6 +106,10 @@ struct wall_visibility {
       const double c = clearance[static_cast<std::size_t>(i)] + clearance[static_cast<std::size_t>(j)];
       if (c * c > d.squaredNorm()) return true;
     }
+    // Convex shortcut (unshifted pairs only, as above): both ends strictly inside the convex fluid side.
+    if (!shifted && inside.size() == static_cast<std::size_t>(x->cols()) && inside[static_cast<std::size_t>(i)] &&
+        inside[static_cast<std::size_t>(j)])
+      return true;
     const vec<D> a = end_point(i, x->col(i));
     const vec<D> b = end_point(j, (x->col(i) + d).eval());
     if (walls->crosses(a, b)) return false;
