@@ -596,11 +596,12 @@ TEST_SUITE("poiseuille_multires") {
     cases::poiseuille_config c;
     const double Lf = 0.25e-3, H = c.H, Lc = c.L;
     c.dt = 0.1 * Lf * Lf / (c.mu / c.rho);
-    // To 0.2 s in CI (two time constants H²/(π²ν) = 0.1 s of the slowest mode; the label's budget): the profile
-    // is checked against the start-up series, the analytic solution at every time. The 0.5 s run (steady
-    // profile 0.74 %) is in docs/resolution.md.
-    c.t_end = 0.2;
-    c.probe_times = {0.05, 0.1};
+    // To 0.5 s (five time constants H²/(π²ν) = 0.1 s of the slowest mode): the start-up series at 0.05, 0.1,
+    // 0.2 s and the end, and the steady profile at the end. (Between f82c6bc and this change the label ran it to
+    // 0.2 s only, for its time budget; the physics suites' build without Eigen's checks and the convex visibility
+    // shortcut paid for the 0.5 s again.)
+    c.t_end = 0.5;
+    c.probe_times = {0.05, 0.1, 0.2};
     c.params.resolution.target_diameter = [=](const vec<2>& x) {
       const double d = std::min(x[1], H - x[1]);
       return Lf + std::clamp((d - 1.5e-3) / 2e-3, 0.0, 1.0) * (1.05 * Lc - Lf);
@@ -618,13 +619,15 @@ TEST_SUITE("poiseuille_multires") {
     CHECK(r.L_max == doctest::Approx(Lc).epsilon(1e-12));
     CHECK(r.splits > 100);
     CHECK(r.particles_end > r.particles);
-    // Issue #9: the profile within 2 % of analytic, the start-up series at 0.05 s, 0.1 s and 0.2 s (measured to
-    // 0.5 s: 0.05 %, 0.06 %, 0.12 % at 0.5 s; the steady profile there 0.74 %, the flow itself missing it by 0.7 %).
+    // Issue #9: the profile within 2 % of analytic. Against the start-up series at 0.05, 0.1, 0.2 and 0.5 s
+    // (measured 0.05 %, 0.06 %, 0.06 %, 0.12 %) and the steady profile at 0.5 s (0.74 %; the flow itself still
+    // misses it by 0.7 %: slowest mode).
     for (const auto& pr : r.probes) {
       CAPTURE(pr.t);
       CHECK(pr.max_error <= 0.02);
     }
     CHECK(r.end.max_error <= 0.02);
+    CHECK(r.steady_error <= 0.02);
   }
 }
 
