@@ -714,13 +714,14 @@ TEST_SUITE("thin_walls") {
     wall::write_ghosts<D>(c, n_real, x, Lv);
     wall::wall_visibility<D> vis{&tank, &x, n_real, &c};
     vis.prepare(exec::seq{}, 3.1 * L);
+    CHECK(tank.convex());
     REQUIRE(vis.inside.size() == static_cast<std::size_t>(x.cols()));  // a tank is convex: the shortcut is on
     wall::wall_visibility<D> exact = vis;
     exact.clearance.clear();
     exact.inside.clear();  // the segment test alone
     const auto end = [&](index_t k) {
       return k < n_real ? vec<D>(x.col(k))
-                        : vec<D>(x.col(k) + 1e-6 * c[static_cast<std::size_t>(k - n_real)].L *
+                        : vec<D>(x.col(k) + vis.pull * c[static_cast<std::size_t>(k - n_real)].L *
                                                 c[static_cast<std::size_t>(k - n_real)].normal);
     };
     long pairs = 0, by_shortcut = 0, hidden = 0, differ = 0;
@@ -742,6 +743,7 @@ TEST_SUITE("thin_walls") {
     if constexpr (D == 2) {
       const polygon_set<2> step(polyline({vec<2>(0.0, 1.0), vec<2>(0.0, 0.0), vec<2>(0.5, 0.0), vec<2>(0.5, 0.1),
                                           vec<2>(1.0, 0.1), vec<2>(1.0, 1.0)}));
+      CHECK_FALSE(step.convex());
       wall::wall_visibility<2> vs{&step, &x, n_real, &c};
       vs.prepare(exec::seq{}, 3.1 * L);
       CHECK(vs.inside.empty());
@@ -755,6 +757,7 @@ TEST_SUITE("thin_walls") {
       m.elements.conservativeResize(3, ne + flipped.elements.cols());
       m.elements.rightCols(flipped.elements.cols()) = flipped.elements.array() + nv;
       const polygon_set<3> with_block(m);
+      CHECK_FALSE(with_block.convex());
       wall::wall_visibility<3> vs{&with_block, &x, n_real, &c};
       vs.prepare(exec::seq{}, 3.1 * L);
       CHECK(vs.inside.empty());  // a block on the floor: the tank's corners lie behind its faces

@@ -110,6 +110,7 @@ class polygon_set final {
     elements_ = std::move(mesh.elements);
     scale_ = detail::bbox_diagonal<D>(ref_vertices_);
     compute_normals_and_topology();
+    convex_ = compute_convex();
     hierarchy_.build(size(), [this](index_t e) { return element_box(e); });
     if (motion_.moves()) move_to(0.0);
   }
@@ -139,6 +140,12 @@ class polygon_set final {
   bool feature_adjacent(index_t e) const { return feature_adjacent_[e] != 0; }
   /// Bounding-box diagonal of the reference geometry (m).
   double scale() const { return scale_; }
+  /// True when every vertex lies on the fluid side of every element's plane (to 1e-12 scale()): the fluid
+  /// side ∩ {y : (y − v_e)·n_e ≥ 0} is then convex with every element on its boundary (tanks, boxes, prisms,
+  /// ducts; not a tank with an obstacle, a step or a thin plate). Checked once at construction for sets of up to
+  /// convex_check_max_elements elements (larger: false); poses are rigid, so it holds in every pose.
+  bool convex() const { return convex_; }
+  static constexpr index_t convex_check_max_elements = 4096;
 
   /// Closest point within max_distance (default: anywhere); ties within a relative 1e-12 of the
   /// squared distance go to the lower element index so results are deterministic (ERP notes §3.1).
@@ -358,6 +365,17 @@ class polygon_set final {
     return c;
   }
 
+  bool compute_convex() const {
+    if (size() == 0 || size() > convex_check_max_elements) return false;
+    const double tol = 1e-12 * scale_;
+    for (index_t e = 0; e < size(); ++e) {
+      const vec<D> q = ref_vertices_.col(elements_(0, e)), n = normals_.col(e);
+      for (index_t k = 0; k < ref_vertices_.cols(); ++k)
+        if ((ref_vertices_.col(k) - q).dot(n) < -tol) return false;
+    }
+    return true;
+  }
+
   void consider(const vec<D>& x, index_t e, closest_point<D>& best, double& best2) const {
     const detail::element_closest<D> c = detail::closest_on_element<D>(x, element(e));
     const double d2 = (x - c.point).squaredNorm();
@@ -479,6 +497,7 @@ class polygon_set final {
   double time_ = 0.0;
   double cos_feature_ = 0.0;
   double scale_ = 0.0;
+  bool convex_ = false;
 };
 
 }  // namespace mpskit::geometry

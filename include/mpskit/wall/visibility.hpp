@@ -37,11 +37,11 @@ struct wall_visibility {
   double pull = 1e-6;                      ///< a copy's end is moved pull·L′ along its normal (range (0, 0.01])
   index_t other_ghosts = 0;  ///< ghosts after the copies, tested at their own positions (pressure-boundary particles)
   std::vector<double> clearance{};          ///< lower bounds of the wall distance per column (prepare())
-  /// Convex shortcut (prepare(), polygon_set only): when every vertex of the set lies on the fluid side of
-  /// every element's plane, the fluid side K = ∩ {y : (y − v_e)·n_e ≥ 0} is convex and holds every element on
-  /// its boundary, so a segment whose ends are both strictly inside K touches no element. inside[c] != 0 marks
-  /// such columns (for a copy: its pulled end). Empty when the set is not convex (or has more than
-  /// convex_max_elements elements): the segment test decides. Same answers as the test, cheaper (tanks,
+  /// Convex shortcut (prepare(), polygon_set only): when the set is convex (polygon_set::convex(): the fluid
+  /// side K = ∩ {y : (y − v_e)·n_e ≥ 0} holds every element on its boundary), a segment whose ends are both
+  /// strictly inside K touches no element. inside[c] != 0 marks such columns (for a copy: its pulled end).
+  /// Empty when the set is not convex (or has more than convex_max_elements elements, where the per-column
+  /// half-space test would cost more than it saves): the segment test decides. Same answers as the test, cheaper (tanks,
   /// ducts: most pairs are within reach of a wall, so the clearances do not prune them).
   std::vector<unsigned char> inside{};
   static constexpr index_t convex_max_elements = 256;  ///< larger sets are not checked for convexity
@@ -73,21 +73,17 @@ struct wall_visibility {
     inside.clear();
     if constexpr (std::is_same_v<Walls, geometry::polygon_set<D>>) {
       const index_t ne = walls->size();
-      if (ne == 0 || ne > convex_max_elements || walls->vertices().cols() > D * convex_max_elements) return;
-      // Convexity: every vertex on the fluid side of every element's plane, to a rounding tolerance.
+      if (!walls->convex() || ne > convex_max_elements) return;
+      // The element planes in the current pose (a point and the fluid-side normal), once per prepare.
       const double tol = 1e-12 * walls->scale();
-      const points<D>& v = walls->vertices();
-      for (index_t el = 0; el < ne; ++el) {
-        const vec<D> q = walls->element(el).col(0), n = walls->element_normal(el);
-        for (index_t k = 0; k < v.cols(); ++k)
-          if ((v.col(k) - q).dot(n) < -tol) return;
-      }
+      std::vector<std::pair<vec<D>, vec<D>>> planes(static_cast<std::size_t>(ne));
+      for (index_t f = 0; f < ne; ++f)
+        planes[static_cast<std::size_t>(f)] = {walls->element(f).col(0), walls->element_normal(f)};
       inside.assign(static_cast<std::size_t>(x->cols()), 0);
       for_each_particle(e, x->cols(), [&](index_t c) {
         const vec<D> y = end_point(c, x->col(c));
         bool in = y.allFinite();
-        for (index_t f = 0; in && f < ne; ++f)
-          in = (y - walls->element(f).col(0)).dot(walls->element_normal(f)) > tol;
+        for (std::size_t f = 0; in && f < planes.size(); ++f) in = (y - planes[f].first).dot(planes[f].second) > tol;
         inside[static_cast<std::size_t>(c)] = in ? 1 : 0;
       });
     }
