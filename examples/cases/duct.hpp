@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
@@ -171,16 +172,8 @@ duct_result run_duct_impl(const duct_config& c) {
     r.rms_error = cells ? std::sqrt(sq / cells) : 0.0;
     r.steps = sim.counters().steps;
     r.guarded = sim.counters().guarded;
-    r.particles_end = st.n_real();
-    r.splits = sim.counters().splits;
-    r.merges = sim.counters().merges;
-    const auto& V = st.template get<field::volume>();
-    r.L_min = 1e300;
-    for (index_t i = 0; i < st.n_real(); ++i) {
-      r.L_min = std::min(r.L_min, std::cbrt(V[i]));
-      r.L_max = std::max(r.L_max, std::cbrt(V[i]));
-      r.u_max = std::max(r.u_max, st.u().col(i).norm());
-    }
+    record_sizes(sim, r);
+    for (index_t i = 0; i < st.n_real(); ++i) r.u_max = std::max(r.u_max, st.u().col(i).norm());
   };
   if constexpr (requires { typename Scene::boundary; }) {
     if (!c.pressure) fail("cases::run_duct_impl: a scene with pressure boundaries needs duct_config::pressure = true");

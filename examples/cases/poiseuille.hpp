@@ -12,6 +12,7 @@
 #include <numbers>
 #include <vector>
 
+#include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/scene.hpp"
 
@@ -28,22 +29,6 @@ struct poiseuille_pressure_scene : lsmps_defaults<2> {
   using surface = mpskit::scheme::no_surface;
   using boundary = mpskit::boundary::pressure;
 };
-
-/// Fills particles_end, L_min, L_max (2D diameters √V) and the split/merge counts of a finished run.
-template <class Sim, class Result>
-void record_sizes(const Sim& sim, Result& r) {
-  const auto& st = sim.state();
-  const auto& V = st.template get<field::volume>();
-  r.particles_end = st.n_real();
-  r.L_min = 1e300;
-  r.L_max = 0.0;
-  for (index_t i = 0; i < st.n_real(); ++i) {
-    r.L_min = std::min(r.L_min, std::sqrt(V[i]));
-    r.L_max = std::max(r.L_max, std::sqrt(V[i]));
-  }
-  r.splits = sim.counters().splits;
-  r.merges = sim.counters().merges;
-}
 
 /// Plane Poiseuille start-up from rest (validation-cases.md D1): u(y, t) = G/(2μ) y(H − y) −
 /// 4 G H²/(μ π³) Σ_{n odd} sin(nπy/H)/n³ exp(−n²π²νt/H²).

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/error.hpp"
@@ -12,6 +13,24 @@
 #include "mpskit/core/fields.hpp"
 
 namespace mpskit::cases {
+
+/// Fills particles_end, L_min, L_max (diameters V^(1/D)) and the split/merge counts of a finished run.
+template <class Sim, class Result>
+void record_sizes(const Sim& sim, Result& r) {
+  const auto& st = sim.state();
+  constexpr int D = std::remove_cvref_t<decltype(st)>::dim;
+  const auto& V = st.template get<field::volume>();
+  r.particles_end = st.n_real();
+  r.L_min = 1e300;
+  r.L_max = 0.0;
+  for (index_t i = 0; i < st.n_real(); ++i) {
+    const double Li = D == 2 ? std::sqrt(V[i]) : std::cbrt(V[i]);
+    r.L_min = std::min(r.L_min, Li);
+    r.L_max = std::max(r.L_max, Li);
+  }
+  r.splits = sim.counters().splits;
+  r.merges = sim.counters().merges;
+}
 
 /// Σ V over the real particles (m² in 2D).
 template <class State>
