@@ -586,6 +586,35 @@ struct poiseuille_pressure_multires_scene : cases::poiseuille_pressure_scene {
 };
 }  // namespace
 
+TEST_SUITE("pressure_boundary") {
+  TEST_CASE("boundary: with split/merge, faces coarser than the target at their inflow points are refused") {
+    // Inflow creates particles of the boundary particle's diameter L_p; where L* < β_s L_p they would split on
+    // arrival beside the face. The 0.5 mm faces of pressure_channel against a target of 0.25 mm within 1.5 mm of
+    // a wall are refused; the same faces against a target of 0.5 mm everywhere (keep), and finer faces (0.25 mm,
+    // their inflow particles merge in the fluid) against that target, are accepted.
+    pressure_channel c;
+    auto p = c.params();
+    const double H = c.H;
+    p.resolution.target_diameter = [H](const vec<2>& x) {
+      return std::min(x[1], H - x[1]) < 1.5e-3 ? 0.25e-3 : 0.5e-3;
+    };
+    CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls,
+                                                                        &c.pb),
+                         doctest::Contains("split on arrival"), mpskit::error);
+    p.resolution.target_diameter = [](const vec<2>&) { return 0.5e-3; };
+    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb));
+    const boundary::pressure_boundary<2> fine(pressure_channel::faces(H, c.ell), {20.0, 0.0}, 0.25e-3);
+    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &fine));
+    // Context targets (wall distance) are evaluated at the inflow point x_p + α_i L_p n_p as well.
+    p.resolution.target_diameter = [](const resolution::target_point<2>& tp) {
+      return tp.wall_distance < 1.5e-3 ? 0.25e-3 : 0.5e-3;
+    };
+    CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls,
+                                                                        &c.pb),
+                         doctest::Contains("split on arrival"), mpskit::error);
+  }
+}
+
 TEST_SUITE("poiseuille_multires") {
   TEST_CASE("channel: periodic Poiseuille with a 2:1 size ratio, refined at the walls by splitting") {
     // Issue #9's [poiseuille_multires] with the channel periodic in x (body force G/ρ; split_merge with
