@@ -53,10 +53,9 @@ int run(int argc, char** argv) {
   if (argc > 1 && !std::strcmp(argv[1], "--duct")) {
     for (bool pressure : {true, false}) {
       mpskit::cases::duct_config dc;
-      dc.pressure = pressure;
       if (argc > 2) dc.t_end = std::atof(argv[2]);
       if (argc > 3) dc.L = std::atof(argv[3]);
-      const auto r = mpskit::cases::run_duct(dc);
+      const auto r = mpskit::cases::run_duct(dc, pressure);
       std::printf("3D duct %s, L = %.3f mm, t = %.3f s (%lld -> %lld particles, %ld steps, %.1f s wall): max cell |u - series| "
                   "/ u_c = %.4f (RMS %.4f), u_c = %.5f m/s; inflow %ld, outflow %ld\n",
                   pressure ? "through pressure faces" : "periodic, body force", dc.L * 1e3, dc.t_end,

@@ -60,7 +60,6 @@ struct duct_config {
   double L = 0.5e-3;     ///< diameter (m)
   double G = 1000.0, rho = 1000.0, mu = 0.1;
   double t_end = 0.05;   ///< run end (s); the slowest mode's time constant W²/(2π²ν) = 8 ms at W = 4 mm
-  bool pressure = true;  ///< pressure faces (else periodic in x with the body force)
   double L_fine = 1e300; ///< smallest diameter splitting can make (m); only bounds the fixed Δt
   /// Boundary-particle spacing on the faces (empty: L); a multi-resolution run passes its target diameter.
   std::function<double(const vec<3>&)> boundary_spacing;
@@ -113,14 +112,17 @@ inline geometry::polygon_mesh<3> duct_faces(double W, double ell) {
   return m;
 }
 
+/// Runs the duct with Scene: through pressure faces when the scene names a boundary (duct_pressure_scene and
+/// scenes derived from it), else periodic in x with the body force G/ρ (duct_scene).
 template <class Scene>
 duct_result run_duct_impl(const duct_config& c) {
+  constexpr bool pressure = requires { typename Scene::boundary; };
   const double L = c.L, W = c.W, ell = c.length;
   auto p = c.params;
   p.rho = c.rho;
   p.nu = c.mu / c.rho;
   p.g.setZero();
-  if (!c.pressure) {
+  if constexpr (!pressure) {
     p.g[0] = c.G / c.rho;
     p.domain.periodic = {true, false, false};
     p.domain.lo = vec<3>(0.0, 0.0, 0.0);
@@ -151,7 +153,7 @@ duct_result run_duct_impl(const duct_config& c) {
     std::vector<double> us(static_cast<std::size_t>(ny * ny), 0.0), ys(us.size(), 0.0), zs(us.size(), 0.0);
     std::vector<long> cnt(us.size(), 0);
     for (index_t i = 0; i < st.n_real(); ++i) {
-      if (c.pressure && std::abs(st.x()(0, i) - 0.5 * ell) > 2.0 * L) continue;
+      if (pressure && std::abs(st.x()(0, i) - 0.5 * ell) > 2.0 * L) continue;
       const int j = std::clamp(static_cast<int>(st.x()(1, i) / L), 0, ny - 1);
       const int k = std::clamp(static_cast<int>(st.x()(2, i) / L), 0, ny - 1);
       const std::size_t b = static_cast<std::size_t>(j * ny + k);
@@ -175,8 +177,7 @@ duct_result run_duct_impl(const duct_config& c) {
     record_sizes(sim, r);
     for (index_t i = 0; i < st.n_real(); ++i) r.u_max = std::max(r.u_max, st.u().col(i).norm());
   };
-  if constexpr (requires { typename Scene::boundary; }) {
-    if (!c.pressure) fail("cases::run_duct_impl: a scene with pressure boundaries needs duct_config::pressure = true");
+  if constexpr (pressure) {
     const auto spacing = [&](const vec<3>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
     const boundary::pressure_boundary<3> pb(geometry::polygon_set<3>(duct_faces(W, ell)),
                                             {c.G * ell, c.G * ell, 0.0, 0.0}, spacing, c.boundary);
@@ -221,9 +222,9 @@ inline void refine_duct_walls(duct_config& c) {
   c.params.solver.ilut_drop_tolerance = 1e-3;
 }
 
-/// Runs the pressure-driven (c.pressure) or periodic duct.
-inline duct_result run_duct(const duct_config& c) {
-  return c.pressure ? run_duct_impl<duct_pressure_scene>(c) : run_duct_impl<duct_scene>(c);
+/// Runs the duct through pressure faces (pressure_faces) or periodic with the body force, single resolution.
+inline duct_result run_duct(const duct_config& c, bool pressure_faces = true) {
+  return pressure_faces ? run_duct_impl<duct_pressure_scene>(c) : run_duct_impl<duct_scene>(c);
 }
 
 }  // namespace mpskit::cases
