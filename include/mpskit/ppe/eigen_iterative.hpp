@@ -23,17 +23,64 @@ struct solver_params {
   /// exact LU: on the LSMPS PPE (≈ 30 entries per row) the factorisation took 81 % of a Taylor–Green step.
   double ilut_drop_tolerance = 1e-4;
   int ilut_fill_factor = 2;
+  /// Incomplete LU (BiCGSTAB, GMRES) kept for up to this many solves when the caller says the unknowns are the
+  /// same particles in the same order as at the factorisation (1: factorised at every solve). The solve still
+  /// runs to `tolerance` on the current matrix, so a lagged factorisation changes iterations, not what is
+  /// accepted; a lagged solve that fails is repeated once with a fresh factorisation. Ours (a standard
+  /// lagged-preconditioner device, not in the papers); docs/solver.md has the measured trade.
+  int ilut_reuse = 4;
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("solver_params");
     v.in_open_range("tolerance", tolerance, 0.0, 1.0).in_range("max_iterations", double(max_iterations), 1, 1e9);
     v.in_range("restart", double(restart), 1, 1e6).in_range("idrs_s", double(idrs_s), 1, 64);
     v.in_range("ilut_drop_tolerance", ilut_drop_tolerance, 0.0, 1.0).in_range("ilut_fill_factor", ilut_fill_factor, 1, 100);
+    v.in_range("ilut_reuse", ilut_reuse, 1, 1000);
     v.throw_if_any();
   }
 };
 
 namespace detail {
+/// An Eigen preconditioner P whose compute() can be skipped: with refactor(false) the next compute keeps the
+/// factors of an earlier matrix (Eigen's IterativeSolverBase::compute always calls the preconditioner's).
+template <class P>
+class lagged_preconditioner {
+ public:
+  lagged_preconditioner() = default;
+  template <class M>
+  explicit lagged_preconditioner(const M& A) {
+    compute(A);
+  }
+  template <class M>
+  lagged_preconditioner& analyzePattern(const M& A) {
+    if (refactor_) p_.analyzePattern(A);
+    return *this;
+  }
+  template <class M>
+  lagged_preconditioner& factorize(const M& A) {
+    if (refactor_) p_.factorize(A);
+    return *this;
+  }
+  template <class M>
+  lagged_preconditioner& compute(const M& A) {
+    if (refactor_) p_.compute(A);
+    return *this;
+  }
+  template <class R>
+  auto solve(const R& b) const {
+    return p_.solve(b);
+  }
+  Eigen::ComputationInfo info() const { return p_.info(); }
+  void setDroptol(double d) { p_.setDroptol(d); }
+  void setFillfactor(int f) { p_.setFillfactor(f); }
+  void refactor(bool on) { refactor_ = on; }  ///< whether the next compute factorises
+  bool refactoring() const { return refactor_; }
+
+ private:
+  P p_;
+  bool refactor_ = true;
+};
+
 template <class EigenSolver, bool Symmetric>
 class eigen_iterative {
  public:
@@ -54,7 +101,29 @@ class eigen_iterative {
     }
     s_.compute(A);
     A_ = &A;
+    since_ = 0;
+    if constexpr (requires { s_.preconditioner().refactor(true); })
+      if (s_.preconditioner().refactoring()) ++factorisations_;
     return s_.info();
+  }
+  /// As compute(A); when same_unknowns (the rows and columns are the same particles in the same order as at
+  /// the last factorisation) an ILUT preconditioner is kept for up to solver_params::ilut_reuse solves.
+  Eigen::ComputationInfo compute(const matrix& A, bool same_unknowns) {
+    if constexpr (requires { s_.preconditioner().refactor(true); }) {
+      const bool keep = same_unknowns && A.rows() == rows_ && since_ + 1 < p_.ilut_reuse && factored_;
+      s_.preconditioner().refactor(!keep);
+      const long since = since_;
+      const Eigen::ComputationInfo info = compute(A);
+      s_.preconditioner().refactor(true);
+      if (keep) since_ = since + 1, lagged_ = true;
+      else lagged_ = false;
+      rows_ = A.rows();
+      factored_ = info == Eigen::Success;
+      return info;
+    } else {
+      (void)same_unknowns;
+      return compute(A);
+    }
   }
   /// Solves A x = b starting from x; reports iterations and the true relative residual.
   solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
@@ -64,6 +133,7 @@ class eigen_iterative {
       x.setZero();
       return r;
     }
+    const Eigen::VectorXd x0 = lagged_ ? x : Eigen::VectorXd();
     x = s_.solveWithGuess(b, x);
     r.info = s_.info();
     r.iterations = s_.iterations();
@@ -86,13 +156,29 @@ class eigen_iterative {
     // A true residual still more than 10× the tolerance is reported as non-convergence.
     if (r.info == Eigen::Success && r.residual > 10.0 * p_.tolerance) r.info = Eigen::NoConvergence;
     if (!x.allFinite()) r.info = Eigen::NumericalIssue;
+    if (r.info != Eigen::Success && lagged_) {  // a lagged factorisation failed: once more with a fresh one
+      lagged_ = false;
+      ++relagged_;
+      if (compute(*A_) == Eigen::Success) {
+        x = x0;
+        const long it = r.iterations;
+        r = solve(b, x);
+        r.iterations += it;
+      }
+    }
     return r;
   }
+  long refactorised_after_failure() const { return relagged_; }  ///< lagged solves repeated with fresh factors
+  long factorisations() const { return factorisations_; }         ///< ILUT factorisations so far
 
  private:
   solver_params p_{};
   EigenSolver s_;
   const matrix* A_ = nullptr;
+  index_t rows_ = -1;     // size at the last compute
+  long since_ = 0;        // solves since the last factorisation
+  bool factored_ = false, lagged_ = false;
+  long relagged_ = 0, factorisations_ = 0;
 };
 }  // namespace detail
 
@@ -106,11 +192,11 @@ using cg_ichol = detail::eigen_iterative<
                              Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::NaturalOrdering<std::ptrdiff_t>>>,
     true>;
 /// BiCGSTAB with incomplete LU (any non-singular system).
-using bicgstab = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, Eigen::IncompleteLUT<double, std::ptrdiff_t>>, false>;
+using bicgstab = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// BiCGSTAB with Jacobi preconditioning (any non-singular system; no factorisation cost).
 using bicgstab_jacobi = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, Eigen::DiagonalPreconditioner<double>>, false>;
 /// Restarted GMRES with incomplete LU (restart set from solver_params::restart).
-using gmres = detail::eigen_iterative<Eigen::GMRES<matrix, Eigen::IncompleteLUT<double, std::ptrdiff_t>>, false>;
+using gmres = detail::eigen_iterative<Eigen::GMRES<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// IDR(s) with Jacobi preconditioning (s from solver_params::idrs_s).
 using idrs = detail::eigen_iterative<Eigen::IDRS<matrix, Eigen::DiagonalPreconditioner<double>>, false>;
 

@@ -15,11 +15,17 @@
 namespace mpskit::ppe {
 
 /// Solves A x = b from the x given (warm start) with `solver`; `describe(r)` names row r in a message
-/// (e.g. "particle 12 (id 40)"). Returns the solver's report; throws on failure.
+/// (e.g. "particle 12 (id 40)"). same_unknowns: the rows and columns are the same particles in the same order
+/// as at the previous solve (solvers with a lagged factorisation may then keep it, solver_params::ilut_reuse).
+/// Returns the solver's report; throws on failure.
 template <LinearSolver S, class Describe>
 solve_report solve_checked(S& solver, const matrix& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
-                           const solver_params& p, long step, double t, const Describe& describe) {
-  if (solver.compute(A) != Eigen::Success)
+                           const solver_params& p, long step, double t, const Describe& describe,
+                           bool same_unknowns = false) {
+  Eigen::ComputationInfo info;
+  if constexpr (requires { solver.compute(A, same_unknowns); }) info = solver.compute(A, same_unknowns);
+  else info = solver.compute(A);
+  if (info != Eigen::Success)
     fail("PPE: the preconditioner failed at step ", step, ", t = ", t, " s (", A.rows(), " unknowns)");
   const solve_report rep = solver.solve(b, x);
   if (rep.info != Eigen::Success) {

@@ -970,12 +970,14 @@ class lsmps_semi_implicit {
         val[at++] = a;
       });
     });
+    same_unknowns_ = same_unknowns_as_before();
     pin_floating_parts();
 
     Eigen::VectorXd sol(m);
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
     last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
-                                     [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); });
+                                     [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); },
+                                     same_unknowns_);
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     for (index_t r = 0; r < m; ++r) {
@@ -991,6 +993,30 @@ class lsmps_semi_implicit {
         const index_t ip = parent(k);
         pres[k] = pres[ip] - (x.col(ip) - x.col(k)).dot(normal_.col(k)) * dpdn_[k];
       }
+  }
+
+  /// True when this step's unknowns are the previous solve's, in the same order: fluid rows by particle id,
+  /// copy rows by (parent id, rank among that parent's copies). Lets a solver keep a factorisation
+  /// (solver_params::ilut_reuse); any change of the set or the order refactorises.
+  bool same_unknowns_as_before() {
+    if (p_.solver.ilut_reuse <= 1) return false;
+    const index_t n = s_.n_real();
+    key_.clear();
+    key_.reserve(rows_.size());
+    index_t last_parent = npos, rank = 0;
+    for (const index_t i : rows_) {
+      if (i < n) {
+        key_.emplace_back(id_of(i), -1);
+        continue;
+      }
+      const index_t ip = parent(i);
+      rank = ip == last_parent ? rank + 1 : 0;
+      last_parent = ip;
+      key_.emplace_back(id_of(ip), rank);
+    }
+    const bool same = key_ == prev_key_;
+    std::swap(key_, prev_key_);
+    return same;
   }
 
   /// Fluid rows (not copies, not boundary particles) of the m built rows whose diagonal is ≥ 0 (or not a
@@ -1105,7 +1131,7 @@ class lsmps_semi_implicit {
     for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
     ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
       return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
-    });
+    }, same_unknowns_);
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {
@@ -1174,6 +1200,8 @@ class lsmps_semi_implicit {
   ppe::matrix A_;
   Eigen::VectorXd b_;
   ppe::solve_report last_solve_{};
+  std::vector<std::pair<particle_id, index_t>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
+  bool same_unknowns_ = false;                                    // this step's, for both solves
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
   std::vector<flag::type> frozen_flags_;  // the state's flags with frozen particles marked isolated
