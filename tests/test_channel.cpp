@@ -601,6 +601,9 @@ TEST_SUITE("pressure_boundary") {
     CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls,
                                                                         &c.pb),
                          doctest::Contains("split on arrival"), mpskit::error);
+    p.resolution.split = false;  // nothing splits: accepted
+    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb));
+    p.resolution.split = true;
     p.resolution.target_diameter = [](const vec<2>&) { return 0.5e-3; };
     CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb));
     const boundary::pressure_boundary<2> fine(pressure_channel::faces(H, c.ell), {20.0, 0.0}, 0.25e-3);

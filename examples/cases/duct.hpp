@@ -112,11 +112,11 @@ inline geometry::polygon_mesh<3> duct_faces(double W, double ell) {
   return m;
 }
 
-/// Runs the duct with Scene: through pressure faces when the scene names a boundary (duct_pressure_scene and
-/// scenes derived from it), else periodic in x with the body force G/ρ (duct_scene).
+/// Runs the duct with Scene: through pressure faces when the scene's boundary is boundary::pressure
+/// (duct_pressure_scene and scenes derived from it), else periodic in x with the body force G/ρ (duct_scene).
 template <class Scene>
 duct_result run_duct_impl(const duct_config& c) {
-  constexpr bool pressure = requires { typename Scene::boundary; };
+  constexpr bool pressure = std::is_same_v<typename scheme::detail::scene_boundary<Scene>::type, mpskit::boundary::pressure>;
   const double L = c.L, W = c.W, ell = c.length;
   auto p = c.params;
   p.rho = c.rho;

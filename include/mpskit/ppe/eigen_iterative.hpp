@@ -27,7 +27,7 @@ struct solver_params {
   /// same particles in the same order as at the factorisation (1: factorised at every solve). The solve still
   /// runs to `tolerance` on the current matrix, so a lagged factorisation changes iterations, not what is
   /// accepted; a lagged solve that fails is repeated once with a fresh factorisation. Ours (a standard
-  /// lagged-preconditioner device, not in the papers); docs/solver.md has the measured trade.
+  /// lagged-preconditioner device, not in the papers); docs/lsmps_scheme.md (deviation 7) has the measured trade.
   int ilut_reuse = 4;
   /// Throws mpskit::error listing every bad value.
   void validate() const {
@@ -90,7 +90,39 @@ class eigen_iterative {
   const solver_params& params() const { return p_; }           ///< stopping rule
   void set_params(const solver_params& p) { p.validate(); p_ = p; }  ///< change the stopping rule
   /// Factorises / analyses A (A must outlive the following solves).
-  Eigen::ComputationInfo compute(const matrix& A) {
+  Eigen::ComputationInfo compute(const matrix& A) { return prepare(A, false); }
+  /// As compute(A); when same_unknowns (the rows and columns are the same particles in the same order as at
+  /// the last factorisation) an ILUT preconditioner is kept for up to solver_params::ilut_reuse solves.
+  Eigen::ComputationInfo compute(const matrix& A, bool same_unknowns) {
+    return prepare(A, lagging && same_unknowns && A.rows() == rows_ && since_ + 1 < p_.ilut_reuse && factored_);
+  }
+  /// Solves A x = b starting from x; reports iterations and the true relative residual. After a lagged
+  /// factorisation that fails, the solve is repeated once from the same start with fresh factors; the
+  /// iterations reported are then both attempts' (each within max_iterations).
+  solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    const Eigen::VectorXd x0 = lagged_ ? x : Eigen::VectorXd();
+    solve_report r = solve_once(b, x);
+    if (r.info != Eigen::Success && lagged_) {  // a lagged factorisation failed: once more with a fresh one
+      ++relagged_;
+      const long first = r.iterations;
+      x = x0;
+      if (prepare(*A_, false) != Eigen::Success) {
+        r.info = Eigen::NumericalIssue;  // the fresh factorisation itself failed
+        return r;
+      }
+      r = solve_once(b, x);
+      r.iterations += first;
+    }
+    return r;
+  }
+  long refactorised_after_failure() const { return relagged_; }  ///< lagged solves repeated with fresh factors
+  long factorisations() const { return factorisations_; }         ///< ILUT factorisations so far
+
+ private:
+  static constexpr bool lagging = requires(EigenSolver& e) { e.preconditioner().refactor(true); };
+
+  /// Sets the solver up for A; keep: the ILUT factors of the last factorisation are kept.
+  Eigen::ComputationInfo prepare(const matrix& A, bool keep) {
     s_.setTolerance(p_.tolerance);
     s_.setMaxIterations(p_.max_iterations);
     if constexpr (requires { s_.set_restart(1); }) s_.set_restart(p_.restart);
@@ -99,41 +131,32 @@ class eigen_iterative {
       s_.preconditioner().setDroptol(p_.ilut_drop_tolerance);
       s_.preconditioner().setFillfactor(p_.ilut_fill_factor);
     }
+    if constexpr (lagging) s_.preconditioner().refactor(!keep);
     s_.compute(A);
     A_ = &A;
-    since_ = 0;
-    if constexpr (requires { s_.preconditioner().refactor(true); })
-      if (s_.preconditioner().refactoring()) ++factorisations_;
-    return s_.info();
-  }
-  /// As compute(A); when same_unknowns (the rows and columns are the same particles in the same order as at
-  /// the last factorisation) an ILUT preconditioner is kept for up to solver_params::ilut_reuse solves.
-  Eigen::ComputationInfo compute(const matrix& A, bool same_unknowns) {
-    if constexpr (requires { s_.preconditioner().refactor(true); }) {
-      const bool keep = same_unknowns && A.rows() == rows_ && since_ + 1 < p_.ilut_reuse && factored_;
-      s_.preconditioner().refactor(!keep);
-      const long since = since_;
-      const Eigen::ComputationInfo info = compute(A);
+    Eigen::ComputationInfo info = s_.info();
+    if constexpr (lagging) {
       s_.preconditioner().refactor(true);
-      if (keep) since_ = since + 1, lagged_ = true;
-      else lagged_ = false;
-      rows_ = A.rows();
-      factored_ = info == Eigen::Success;
-      return info;
-    } else {
-      (void)same_unknowns;
-      return compute(A);
+      if (keep) {
+        ++since_;
+      } else {
+        ++factorisations_;
+        since_ = 0;
+        factored_ = info == Eigen::Success;
+      }
     }
+    lagged_ = keep;
+    rows_ = A.rows();
+    return info;
   }
-  /// Solves A x = b starting from x; reports iterations and the true relative residual.
-  solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+
+  solve_report solve_once(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     solve_report r;
     const double bn = b.norm();
     if (bn == 0.0) {  // the exact solution is 0: no iteration
       x.setZero();
       return r;
     }
-    const Eigen::VectorXd x0 = lagged_ ? x : Eigen::VectorXd();
     x = s_.solveWithGuess(b, x);
     r.info = s_.info();
     r.iterations = s_.iterations();
@@ -156,28 +179,16 @@ class eigen_iterative {
     // A true residual still more than 10× the tolerance is reported as non-convergence.
     if (r.info == Eigen::Success && r.residual > 10.0 * p_.tolerance) r.info = Eigen::NoConvergence;
     if (!x.allFinite()) r.info = Eigen::NumericalIssue;
-    if (r.info != Eigen::Success && lagged_) {  // a lagged factorisation failed: once more with a fresh one
-      lagged_ = false;
-      ++relagged_;
-      if (compute(*A_) == Eigen::Success) {
-        x = x0;
-        const long it = r.iterations;
-        r = solve(b, x);
-        r.iterations += it;
-      }
-    }
     return r;
   }
-  long refactorised_after_failure() const { return relagged_; }  ///< lagged solves repeated with fresh factors
-  long factorisations() const { return factorisations_; }         ///< ILUT factorisations so far
 
- private:
   solver_params p_{};
   EigenSolver s_;
   const matrix* A_ = nullptr;
   index_t rows_ = -1;     // size at the last compute
   long since_ = 0;        // solves since the last factorisation
-  bool factored_ = false, lagged_ = false;
+  bool factored_ = false;  // the last factorisation succeeded
+  bool lagged_ = false;    // the current solve uses kept factors
   long relagged_ = 0, factorisations_ = 0;
 };
 }  // namespace detail

@@ -37,6 +37,7 @@
 /// 12. If Scene::resolution is split_merge: splitting/merging on this step's list, normals and flags, one
 ///     resize (scheme/detail/resolution_stage.hpp, docs/resolution.md).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -668,9 +669,11 @@ class lsmps_semi_implicit {
   /// 3.8 % against 0.7 % with the faces at the target spacing (docs/resolution.md). Refused here with the remedy
   /// (ours: the paper does not discuss it). Finer boundary particles than the target are accepted: their inflow
   /// particles merge in the fluid, counted as merges (a 3D face triangle is cut uniformly at the smallest L* of
-  /// its corners, so a face spanning a refined and a coarse zone always has some).
+  /// its corners, so a face spanning a refined and a coarse zone always has some). A target reading the context
+  /// gets the inflow point's wall distance; its surface distance is +inf and its index npos (no particle yet).
   void check_boundary_spacing() const {
     const auto& rp = p_.resolution;
+    if (!rp.split) return;  // nothing splits
     const bool ctx = rp.target_diameter.wants_context();
     for (index_t k = 0; k < pb_->size(); ++k) {
       const double Lp = pb_->diameters()[k];
@@ -995,24 +998,22 @@ class lsmps_semi_implicit {
       }
   }
 
-  /// True when this step's unknowns are the previous solve's, in the same order: fluid rows by particle id,
-  /// copy rows by (parent id, rank among that parent's copies). Lets a solver keep a factorisation
+  /// True when this step's unknowns are the previous step's, in the same order: fluid rows by particle id,
+  /// copy rows by (parent id, polygon set, element). Lets a solver keep a factorisation
   /// (solver_params::ilut_reuse); any change of the set or the order refactorises.
   bool same_unknowns_as_before() {
     if (p_.solver.ilut_reuse <= 1) return false;
     const index_t n = s_.n_real();
     key_.clear();
     key_.reserve(rows_.size());
-    index_t last_parent = npos, rank = 0;
     for (const index_t i : rows_) {
       if (i < n) {
-        key_.emplace_back(id_of(i), -1);
+        key_.push_back({static_cast<std::int64_t>(id_of(i)), -1, -1});
         continue;
       }
-      const index_t ip = parent(i);
-      rank = ip == last_parent ? rank + 1 : 0;
-      last_parent = ip;
-      key_.emplace_back(id_of(ip), rank);
+      const auto& cp = copies_[static_cast<std::size_t>(i - n)];
+      key_.push_back({static_cast<std::int64_t>(id_of(parent(i))), static_cast<std::int64_t>(cp.set),
+                      static_cast<std::int64_t>(cp.element)});
     }
     const bool same = key_ == prev_key_;
     std::swap(key_, prev_key_);
@@ -1111,6 +1112,9 @@ class lsmps_semi_implicit {
   void pin_floating_parts() {
     const auto floating = ppe::find_floating_parts(A_, dirichlet_, false,
                                                    [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
+    // The adjoint solver's factors are the previous step's only if that step solved with it as well.
+    const bool adjoint_same = same_unknowns_ && floating_before_;
+    floating_before_ = !floating.empty();
     if (floating.empty()) return;
     const index_t m = A_.rows();
     c_.pinned_components += static_cast<long>(floating.size());
@@ -1131,7 +1135,7 @@ class lsmps_semi_implicit {
     for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
     ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
       return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
-    }, same_unknowns_);
+    }, adjoint_same);
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {
@@ -1200,8 +1204,9 @@ class lsmps_semi_implicit {
   ppe::matrix A_;
   Eigen::VectorXd b_;
   ppe::solve_report last_solve_{};
-  std::vector<std::pair<particle_id, index_t>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
-  bool same_unknowns_ = false;                                    // this step's, for both solves
+  std::vector<std::array<std::int64_t, 3>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
+  bool same_unknowns_ = false;                               // this step's unknowns are the previous step's
+  bool floating_before_ = false;  // the previous step had floating parts (its adjoint solver holds their factors)
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
   std::vector<flag::type> frozen_flags_;  // the state's flags with frozen particles marked isolated
