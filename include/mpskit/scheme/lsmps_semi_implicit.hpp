@@ -233,6 +233,7 @@ struct lsmps_counters {
   long steps = 0;                  ///< steps taken
   long ppe_iterations = 0;         ///< solver iterations, summed
   long ppe_iterations_max = 0;     ///< largest per step
+  long ppe_lagged_retries = 0;     ///< lagged-ILUT solves (solver_params::ilut_reuse) repeated with fresh factors
   long pinned_components = 0;      ///< PPE parts with no Dirichlet row, pinned (summed over steps)
   long isolated = 0;               ///< isolated particle-steps
   long copies = 0;                 ///< imaginary copies made (summed over steps)
@@ -681,10 +682,8 @@ class lsmps_semi_implicit {
       tp.x = pb_->x().col(k) + pb_->params().alpha_i * Lp * pb_->normals().col(k);
       if constexpr (has_walls)
         if (ctx) tp.wall_distance = walls_->signed_distance(tp.x);
-      const double Ls = rp.target_diameter(tp);
-      if (!(std::isfinite(Ls) && Ls > 0.0))
-        fail("lsmps_semi_implicit: target_diameter returned ", Ls, " at the inflow point (", tp.x.transpose(),
-             ") of pressure-boundary particle ", k, ": accepted range (0, inf)");
+      const double Ls = rp.target_diameter.checked(tp, "lsmps_semi_implicit", "the inflow point (", tp.x.transpose(),
+                                                   ") of pressure-boundary particle ", k);
       if (resolution_type::trigger::template decide<D>(Ls, Lp) == resolution::want::split)
         fail("lsmps_semi_implicit: pressure-boundary particle ", k, " at (", pb_->x().col(k).transpose(),
              ") has spacing L_p = ", Lp, " but the target diameter at its inflow point is L* = ", Ls,
@@ -973,14 +972,16 @@ class lsmps_semi_implicit {
         val[at++] = a;
       });
     });
-    same_unknowns_ = same_unknowns_as_before();
-    pin_floating_parts();
+    const bool same_unknowns = same_unknowns_as_before();
+    pin_floating_parts(same_unknowns);
 
     Eigen::VectorXd sol(m);
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
+    const long retries_before = lagged_retries(solver_);
     last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
                                      [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); },
-                                     same_unknowns_);
+                                     same_unknowns);
+    c_.ppe_lagged_retries += lagged_retries(solver_) - retries_before;
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     for (index_t r = 0; r < m; ++r) {
@@ -1099,6 +1100,15 @@ class lsmps_semi_implicit {
     if (!self_done) emit(self, 0.0);
   }
 
+  /// Lagged-ILUT solves that solver has repeated with fresh factors so far (0 for solvers without lagged factors).
+  template <class S>
+  static long lagged_retries(const S& solver) {
+    if constexpr (requires { solver.refactorised_after_failure(); })
+      return solver.refactorised_after_failure();
+    else
+      return 0;
+  }
+
   /// Parts of the unknowns' graph with no Dirichlet neighbour (periodic boxes) are singular: p is defined up
   /// to a constant and the system is solvable only for a right-hand side orthogonal to the left null vector
   /// y (Aᵀ y = 0). The LSMPS matrix is not symmetric, so y is not constant, and removing the mean source
@@ -1109,11 +1119,12 @@ class lsmps_semi_implicit {
   ///     removing the mean source);
   ///  3. the pinned row replaced by p_pin = 0 (lowest-id particle). The solution then satisfies every row.
   /// Counted in pinned_components.
-  void pin_floating_parts() {
+  /// same_unknowns: this step's unknowns are the previous step's (same_unknowns_as_before()).
+  void pin_floating_parts(bool same_unknowns) {
     const auto floating = ppe::find_floating_parts(A_, dirichlet_, false,
                                                    [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
     // The adjoint solver's factors are the previous step's only if that step solved with it as well.
-    const bool adjoint_same = same_unknowns_ && floating_before_;
+    const bool adjoint_same = same_unknowns && floating_before_;
     floating_before_ = !floating.empty();
     if (floating.empty()) return;
     const index_t m = A_.rows();
@@ -1133,9 +1144,11 @@ class lsmps_semi_implicit {
       for (ppe::matrix::InnerIterator it(B, r); it; ++it) it.valueRef() = it.index() == r ? 1.0 : 0.0;
     }
     for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
+    const long retries_before = lagged_retries(adjoint_solver_);
     ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
       return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
     }, adjoint_same);
+    c_.ppe_lagged_retries += lagged_retries(adjoint_solver_) - retries_before;
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {
@@ -1205,7 +1218,6 @@ class lsmps_semi_implicit {
   Eigen::VectorXd b_;
   ppe::solve_report last_solve_{};
   std::vector<std::array<std::int64_t, 3>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
-  bool same_unknowns_ = false;                               // this step's unknowns are the previous step's
   bool floating_before_ = false;  // the previous step had floating parts (its adjoint solver holds their factors)
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
