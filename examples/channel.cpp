@@ -126,10 +126,12 @@ int run(int argc, char** argv) {
     if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
     const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<mpskit::cases::multi_diameter_multires_scene>(mc)
                                 : mpskit::cases::run_multi_diameter(mc);
-    std::printf("multi-diameter channel, L = %.3f mm%s%s (%lld particles initially, %ld steps, %.1f s wall), to %.2f s:\n",
+    std::printf("multi-diameter channel, L = %.3f mm%s%s (%lld particles initially, %ld steps, %.1f s wall, %.1f PPE "
+                "iterations per step), to %.2f s:\n",
                 mc.L * 1e3, ratio >= 1.0 ? ", split to L/ratio in the narrow section" : "",
                 mc.params.copy_row == mpskit::scheme::copy_row_kind::neumann_points ? ", Neumann-point walls" : "",
-                static_cast<long long>(r.particles), r.steps, r.wall_seconds, mc.t_end);
+                static_cast<long long>(r.particles), r.steps, r.wall_seconds,
+                static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), mc.t_end);
     std::printf("  volume balance over the last %.2f s: |Q_in - Q_out - dV/dt| / Q_in = %.4f (Q_in %.3e m^2/s)\n",
                 mc.window, r.balance, r.q_in);
     std::printf("  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s (last %.2f s: "
