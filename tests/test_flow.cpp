@@ -302,12 +302,15 @@ TEST_SUITE("solver") {
     capped.max_iterations = 2 * rf.iterations + 2;
     ppe::bicgstab lagged(capped);
     Eigen::VectorXd x0 = Eigen::VectorXd::Zero(g * g);
-    ppe::solve_checked(lagged, As[0], Eigen::VectorXd(As[0] * u), x0, capped, 0, 0.0, [](index_t) { return std::string("row"); });
+    const auto r0 = ppe::solve_checked(lagged, As[0], Eigen::VectorXd(As[0] * u), x0, capped, 0, 0.0,
+                                       [](index_t) { return std::string("row"); });
+    CHECK(!r0.lagged_retry);  // fresh factors: nothing to retry
     Eigen::VectorXd x1 = Eigen::VectorXd::Zero(g * g);
     const auto r1 = ppe::solve_checked(lagged, S, Eigen::VectorXd(S * u), x1, capped, 1, 0.0,
                                        [](index_t) { return std::string("row"); }, true);
     MESSAGE("fresh factors: " << rf.iterations << " iterations; lagged then fresh: " << r1.iterations);
     CHECK(lagged.refactorised_after_failure() == 1);
+    CHECK(r1.lagged_retry);  // the report says so (the LSMPS stepper counts it in counters().ppe_lagged_retries)
     CHECK(lagged.factorisations() == 2);
     // S's condition number is ≈ 1.7e5, so the accepted residual alone bounds the error by ≈ 2e-2 |u|; the fresh
     // factors reach 1.3e-8 |u| (measured), which 1e-5 checks with margin (a lagged answer gave 5.8e-6)

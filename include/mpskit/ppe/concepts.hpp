@@ -38,6 +38,7 @@ struct solve_report {
   Eigen::ComputationInfo info = Eigen::Success;  ///< Success, NoConvergence or NumericalIssue
   long iterations = 0;                           ///< iterations used
   double residual = 0.0;                         ///< relative residual |A x − b| / |b| reached
+  bool lagged_retry = false;  ///< a solve on lagged factors failed and was repeated with fresh ones (eigen_iterative)
 };
 
 /// A linear solver over `matrix`: `compute(A)` then `solve(b, x)` with x the warm start on entry.

@@ -112,6 +112,7 @@ class eigen_iterative {
       }
       r = solve_once(b, x);
       r.iterations += first;
+      r.lagged_retry = true;
     }
     return r;
   }

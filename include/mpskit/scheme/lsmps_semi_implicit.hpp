@@ -977,11 +977,10 @@ class lsmps_semi_implicit {
 
     Eigen::VectorXd sol(m);
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
-    const long retries_before = lagged_retries(solver_);
     last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
                                      [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); },
                                      same_unknowns);
-    c_.ppe_lagged_retries += lagged_retries(solver_) - retries_before;
+    c_.ppe_lagged_retries += last_solve_.lagged_retry;
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     for (index_t r = 0; r < m; ++r) {
@@ -1100,15 +1099,6 @@ class lsmps_semi_implicit {
     if (!self_done) emit(self, 0.0);
   }
 
-  /// Lagged-ILUT solves that solver has repeated with fresh factors so far (0 for solvers without lagged factors).
-  template <class S>
-  static long lagged_retries(const S& solver) {
-    if constexpr (requires { solver.refactorised_after_failure(); })
-      return solver.refactorised_after_failure();
-    else
-      return 0;
-  }
-
   /// Parts of the unknowns' graph with no Dirichlet neighbour (periodic boxes) are singular: p is defined up
   /// to a constant and the system is solvable only for a right-hand side orthogonal to the left null vector
   /// y (Aᵀ y = 0). The LSMPS matrix is not symmetric, so y is not constant, and removing the mean source
@@ -1144,11 +1134,10 @@ class lsmps_semi_implicit {
       for (ppe::matrix::InnerIterator it(B, r); it; ++it) it.valueRef() = it.index() == r ? 1.0 : 0.0;
     }
     for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
-    const long retries_before = lagged_retries(adjoint_solver_);
-    ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
+    const ppe::solve_report adjoint = ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
       return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
     }, adjoint_same);
-    c_.ppe_lagged_retries += lagged_retries(adjoint_solver_) - retries_before;
+    c_.ppe_lagged_retries += adjoint.lagged_retry;
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {
