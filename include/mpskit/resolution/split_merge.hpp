@@ -131,11 +131,12 @@ class target_diameter_fn {
   /// L* at p.
   double operator()(const target_point<D>& p) const { return f_(p); }
   /// L* at p, refused unless finite and > 0; the message reads "<who>: target_diameter returned L* at
-  /// <where...>: accepted range (0, inf)". Used by split_merge and by the stepper's pressure-face check.
-  template <class... Where>
-  double checked(const target_point<D>& p, const char* who, const Where&... where) const {
+  /// <where()>: accepted range (0, inf)". `where` returns the place as a string and is called only on failure
+  /// (the check runs per particle per step). Used by split_merge and by the stepper's pressure-face check.
+  template <class Where>
+  double checked(const target_point<D>& p, const char* who, const Where& where) const {
     const double Ls = f_(p);
-    if (!(std::isfinite(Ls) && Ls > 0.0)) fail(who, ": target_diameter returned ", Ls, " at ", where..., ": accepted range (0, inf)");
+    if (!(std::isfinite(Ls) && Ls > 0.0)) fail(who, ": target_diameter returned ", Ls, " at ", where(), ": accepted range (0, inf)");
     return Ls;
   }
 
@@ -415,7 +416,9 @@ struct split_merge final {
           tp.wall_distance = wall_distance(tp.x);
           tp.surface_distance = surface_distance(i);
         }
-        const double Ls = p_.target_diameter.checked(tp, "split_merge", "particle ", i, " (id ", id_of(i), ", x = ", fmt(tp.x), ")");
+        const double Ls = p_.target_diameter.checked(tp, "split_merge", [&] {
+          return mpskit::detail::concat("particle ", i, " (id ", id_of(i), ", x = ", fmt(tp.x), ")");
+        });
         Lt_[static_cast<std::size_t>(i)] = Ls;
         const want wi = Trigger_::template decide<D>(Ls, L(i));
         want_[static_cast<std::size_t>(i)] = wi;
@@ -814,7 +817,9 @@ struct split_merge final {
           tp.wall_distance = wall_distance(tp.x);
           tp.surface_distance = std::min(surface_distance(ed.i), surface_distance(ed.j));
         }
-        const double Ls = p_.target_diameter.checked(tp, "split_merge", "the merged position ", fmt(tp.x), " of ids ", ed.lo, " and ", ed.hi);
+        const double Ls = p_.target_diameter.checked(tp, "split_merge", [&] {
+          return mpskit::detail::concat("the merged position ", fmt(tp.x), " of ids ", ed.lo, " and ", ed.hi);
+        });
         if (Trigger_::template decide<D>(Ls, Lm) == want::split) continue;
         had_valid[static_cast<std::size_t>(ed.i)] = had_valid[static_cast<std::size_t>(ed.j)] = 1;
         valid.push_back(ed);

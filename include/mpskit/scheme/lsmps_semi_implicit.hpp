@@ -682,8 +682,9 @@ class lsmps_semi_implicit {
       tp.x = pb_->x().col(k) + pb_->params().alpha_i * Lp * pb_->normals().col(k);
       if constexpr (has_walls)
         if (ctx) tp.wall_distance = walls_->signed_distance(tp.x);
-      const double Ls = rp.target_diameter.checked(tp, "lsmps_semi_implicit", "the inflow point (", tp.x.transpose(),
-                                                   ") of pressure-boundary particle ", k);
+      const double Ls = rp.target_diameter.checked(tp, "lsmps_semi_implicit", [&] {
+        return mpskit::detail::concat("the inflow point (", tp.x.transpose(), ") of pressure-boundary particle ", k);
+      });
       if (resolution_type::trigger::template decide<D>(Ls, Lp) == resolution::want::split)
         fail("lsmps_semi_implicit: pressure-boundary particle ", k, " at (", pb_->x().col(k).transpose(),
              ") has spacing L_p = ", Lp, " but the target diameter at its inflow point is L* = ", Ls,
