@@ -3,7 +3,7 @@
 // the start-up series (validation-cases.md D1).
 // Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]   |   channel --duct [t_end] [L]
 //        |   channel --duct-multires [t_end]
-//        |   channel --multi [L] [t_end] [--refine R] [--neumann-points]
+//        |   channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--progress S]
 //   --duct:  the 3D square duct (W = 4 mm, 8 mm long, L = 0.5 mm) through pressure faces, and periodic with G/rho,
 //            against the start-up series: channel --duct [t_end] [L]
 //   --duct-multires [t_end]: that duct through pressure faces, split near its walls (cases::refine_duct_walls;
@@ -11,7 +11,9 @@
 //   --multi: the multi-diameter channel (30 mm -> 10 mm, 100 Pa -> 0 Pa, mu = 0.001 Pa s); default L = 1 mm to
 //            0.3 s (the CI case); the paper's is L = 0.25 mm to 1 s. --refine R: start from L and split to L/R
 //            entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 -> 0.25 mm, R = 3)
+//            --graded: with --refine, start from particles at the target diameter (resolution::graded_lattice)
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
+//            --progress S: a progress row on stderr every S wall seconds
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s, ILUT-BiCGSTAB (Tanaka's single resolution
@@ -97,6 +99,14 @@ int run(int argc, char** argv) {
     for (int a = 2; a < argc; ++a) {
       if (!std::strcmp(argv[a], "--neumann-points")) {  // the wall copies as Neumann points (opt-in wall rows)
         mc.params.copy_row = mpskit::scheme::copy_row_kind::neumann_points;
+      } else if (!std::strcmp(argv[a], "--progress")) {
+        if (a + 1 >= argc) {
+          std::fprintf(stderr, "channel --multi: --progress needs an interval in wall seconds\n");
+          return 2;
+        }
+        if (!number("--progress", argv[++a], mc.progress_interval)) return 2;
+      } else if (!std::strcmp(argv[a], "--graded")) {  // start at the target diameter (with --refine)
+        mc.graded_start = true;
       } else if (!std::strcmp(argv[a], "--refine")) {
         if (a + 1 >= argc) {
           std::fprintf(stderr, "channel --multi: --refine needs a diameter ratio R >= 1\n");
@@ -114,7 +124,7 @@ int run(int argc, char** argv) {
         if (!number("t_end", argv[a], mc.t_end)) return 2;
         ++positional;
       } else {
-        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R] [--neumann-points] (unexpected '%s')\n",
+        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--progress S] (unexpected '%s')\n",
                      argv[a]);
         return 2;
       }
@@ -123,12 +133,19 @@ int run(int argc, char** argv) {
       std::fprintf(stderr, "channel --multi: t_end must exceed the %g s balance window (got %g)\n", mc.window, mc.t_end);
       return 2;
     }
+    if (mc.graded_start && !(ratio >= 1.0)) {
+      std::fprintf(stderr, "channel --multi: --graded needs --refine R (the target diameter it grades to)\n");
+      return 2;
+    }
     if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
     const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<mpskit::cases::multi_diameter_multires_scene>(mc)
                                 : mpskit::cases::run_multi_diameter(mc);
     std::printf("multi-diameter channel, L = %.3f mm%s%s (%lld particles initially, %ld steps, %.1f s wall, %.1f PPE "
                 "iterations per step), to %.2f s:\n",
-                mc.L * 1e3, ratio >= 1.0 ? ", split to L/ratio in the narrow section" : "",
+                mc.L * 1e3,
+                ratio >= 1.0 ? (mc.graded_start ? ", graded to L/ratio in the narrow section at the start"
+                                                 : ", split to L/ratio in the narrow section")
+                             : "",
                 mc.params.copy_row == mpskit::scheme::copy_row_kind::neumann_points ? ", Neumann-point walls" : "",
                 static_cast<long long>(r.particles), r.steps, r.wall_seconds,
                 static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), mc.t_end);

@@ -27,6 +27,7 @@
 #include "mpskit/geometry/generators.hpp"
 #include "mpskit/geometry/polygon_set.hpp"
 #include "mpskit/resolution/concepts.hpp"
+#include "mpskit/resolution/graded_lattice.hpp"
 #include "mpskit/resolution/ledger.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
@@ -305,6 +306,110 @@ TEST_SUITE("split_merge") {
       CHECK(bs * l0 <=
             bm * (child * l0) + 1e-18);  // L* < β_s L ⇒ L* < β_m L′ = L: a child never merges at once
       CHECK(bm * l0 >= bs * (bm * l0));  // L* > β_m L = L′ ⇒ L* > β_s L′: a merged pair never splits
+    }
+  }
+
+  TEST_CASE("graded_lattice: lattices kept, volumes halved exactly, a fixed point of the trigger, no clustering") {
+    using T = res::tanaka_thresholds;
+    const double L = std::ldexp(1.0, -10);  // a power of two: positions, volumes L²/2^k and their sums are exact
+    const auto all = [](const vec<2>&, double) { return true; };
+    const auto sorted = [](std::vector<vec<2>> v) {
+      std::sort(v.begin(), v.end(), [](const vec<2>& a, const vec<2>& b) {
+        return std::tie(a.y(), a.x()) < std::tie(b.y(), b.x());
+      });
+      return v;
+    };
+    SUBCASE("a uniform target L/2: two splits per cell give the cell-centred square lattice of spacing L/2") {
+      const auto g = res::graded_lattice(vec<2>(0, 0), vec<2>(7 * L, 5 * L), L, [&](const vec<2>&) { return 0.5 * L; }, all);
+      REQUIRE(g.size() == 4u * 35u);
+      std::vector<vec<2>> want;
+      for (int i = 0; i < 14; ++i)
+        for (int j = 0; j < 10; ++j) want.emplace_back((i + 0.5) * 0.5 * L, (j + 0.5) * 0.5 * L);
+      CHECK(sorted(g.x) == sorted(want));  // bitwise: dyadic numbers
+      for (std::size_t q = 0; q < g.size(); ++q) {
+        CHECK(g.generation[q] == 2);
+        CHECK(g.volume[q] == 0.25 * L * L);
+      }
+    }
+    SUBCASE("a uniform target 0.7 L: one split per cell gives the 45°-rotated lattice of spacing L/√2") {
+      const auto g = res::graded_lattice(vec<2>(0, 0), vec<2>(6 * L, 6 * L), L, [&](const vec<2>&) { return 0.7 * L; }, all);
+      REQUIRE(g.size() == 72u);
+      // An interior particle has exactly four neighbours at L/√2, along the diagonals.
+      const vec<2> c(3.25 * L, 3.25 * L);
+      int at = 0;
+      for (const auto& x : g.x) {
+        const vec<2> d = x - c;
+        if (d.norm() > 1e-9 * L && d.norm() < 0.75 * L) {
+          CHECK(d.norm() == doctest::Approx(L / std::numbers::sqrt2).epsilon(1e-13));
+          CHECK(std::abs(d.x()) == std::abs(d.y()));
+          ++at;
+        }
+      }
+      CHECK(at == 4);
+    }
+    SUBCASE("ramps and steps from L to L/R: ΣV exact, every leaf asks for nothing, min r_ij/L_ij bounded") {
+      for (const double R : {2.0, 3.0, 5.0, 8.0})
+        for (const bool step : {false, true}) {
+          CAPTURE(R);
+          CAPTURE(step);
+          // L/R within 10 L of x = 30 L (a step at 10.3 L, or a ramp back to L at 25 L), L at the box's ends.
+          const auto target = [&](const vec<2>& x) {
+            const double d = std::abs(x.x() - 30 * L);
+            if (step) return d < 10.3 * L ? L / R : L;
+            return L * (1.0 - std::clamp((25 * L - d) / (15 * L), 0.0, 1.0) * (1.0 - 1.0 / R));
+          };
+          const auto g = res::graded_lattice(vec<2>(0, 0), vec<2>(60 * L, 20 * L), L, target, all);
+          double V = 0.0, rmin = 1e300;
+          int kmax = 0, outside = 0, asking = 0;
+          for (std::size_t a = 0; a < g.size(); ++a) {
+            V += g.volume[a];
+            kmax = std::max(kmax, g.generation[a]);
+            const vec<2>& x = g.x[a];
+            const double h = std::sqrt(g.volume[a]);
+            outside += !(x.x() > 0.0 && x.x() < 60 * L && x.y() > 0.0 && x.y() < 20 * L);
+            // Fixed point: split_merge's trigger neither splits nor merges the particle at its own position
+            // (squares by construction; diagonal pairs were decided at their cell's centre, see the header).
+            asking += T::decide<2>(target(x), h) != res::want::none;
+          }
+          // Pairs closer than L in x (a sweep over the particles sorted by x; r_ij/L_ij ≥ 1 beyond).
+          std::vector<std::size_t> by_x(g.size());
+          std::iota(by_x.begin(), by_x.end(), std::size_t{0});
+          std::sort(by_x.begin(), by_x.end(), [&](std::size_t a, std::size_t b) { return g.x[a].x() < g.x[b].x(); });
+          for (std::size_t a = 0; a < by_x.size(); ++a)
+            for (std::size_t b = a + 1; b < by_x.size() && g.x[by_x[b]].x() - g.x[by_x[a]].x() < L; ++b) {
+              const std::size_t i = by_x[a], j = by_x[b];
+              rmin = std::min(rmin, (g.x[i] - g.x[j]).norm() / (0.5 * (std::sqrt(g.volume[i]) + std::sqrt(g.volume[j]))));
+            }
+          CHECK(outside == 0);  // strictly inside the box
+          CHECK(asking == 0);
+          CHECK(V == 1200.0 * L * L);  // the 60 × 20 start cells' area, bitwise (powers of two)
+          // Generations: the smallest k with L* ≥ β_s L/√2^k at the finest target L/R.
+          int k = 0;
+          while (L / R < T::beta_s<2>() * L / std::pow(std::numbers::sqrt2, k)) ++k;
+          CHECK(kmax == k);
+          // Measured 0.828 (2√2 − 2) on the ramps and 0.94–1 on the steps; 0.8 is far above the 0.5.
+          MESSAGE("R = " << R << (step ? " step" : " ramp") << ": " << g.size() << " particles, min r_ij/L_ij = " << rmin);
+          CHECK(rmin >= 0.8);
+        }
+    }
+    SUBCASE("keep filters the particles, not the start cells; bad input is refused") {
+      // A wall at y = 0.3 L: the bottom start cells' centres (y = L/2, 0.2 L from it) would not be kept at L, but
+      // their upper children (y = 0.75 L, 0.45 L ≥ h/2 = 0.354 L from it) are; their lower ones (y = L/4) are not.
+      const auto g = res::graded_lattice(vec<2>(0, 0), vec<2>(4 * L, 4 * L), L, [&](const vec<2>&) { return 0.7 * L; },
+                                         [&](const vec<2>& x, double h) { return x.y() - 0.3 * L >= 0.5 * h; });
+      for (const auto& x : g.x) CHECK(x.y() >= 0.75 * L);
+      CHECK(g.size() == 28u);  // 16 cells × 2 particles, the 4 lower ones of the bottom row dropped
+      const auto t = [&](const vec<2>&) { return L; };
+      CHECK_THROWS_WITH_AS(res::graded_lattice(vec<2>(0, 0), vec<2>(L, L), 0.0, t, all), doctest::Contains("start spacing"),
+                           mpskit::error);
+      CHECK_THROWS_WITH_AS(res::graded_lattice(vec<2>(0, 0), vec<2>(0, L), L, t, all), doctest::Contains("is empty"),
+                           mpskit::error);
+      CHECK_THROWS_WITH_AS(
+          res::graded_lattice(vec<2>(0, 0), vec<2>(L, L), L, [](const vec<2>&) { return std::nan(""); }, all),
+          doctest::Contains("target diameter is nan"), mpskit::error);
+      CHECK_THROWS_WITH_AS(
+          res::graded_lattice(vec<2>(0, 0), vec<2>(L, L), L, [&](const vec<2>&) { return 1e-9 * L; }, all),
+          doctest::Contains("still asks to split after 20 generations"), mpskit::error);
     }
   }
 

@@ -8,10 +8,14 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <iostream>
+#include <optional>
 #include <vector>
 
 #include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
+#include "mpskit/io/progress.hpp"
+#include "mpskit/resolution/graded_lattice.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/scene.hpp"
 
@@ -37,6 +41,11 @@ struct multi_diameter_config {
   /// Boundary-particle spacing along the faces (empty: L). A multi-resolution scene (params.resolution's
   /// target diameter) sets it to the target there, so inflow creates particles of the local target size.
   std::function<double(const vec<2>&)> boundary_spacing;
+  /// Start from particles at the target diameter (resolution::graded_lattice from the L lattice, with
+  /// params.resolution.target_diameter) instead of the L lattice everywhere, which then splits in the first steps.
+  bool graded_start = false;
+  /// > 0: a progress row (io::progress_sink) on stderr at most every that many wall seconds (long runs).
+  double progress_interval = 0.0;
   /// The pressure boundary's numbers: Table 1 except α_o = 0.5 (ours; docs/channel.md), with the default
   /// face-distance outflow rule: with α_o = 0.25 the L = 1 mm run failed at t = 0.30 s (pressure spikes beside
   /// the outlet and the convex taper corners).
@@ -130,15 +139,37 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   const auto spacing = [&](const vec<2>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
   const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, spacing,
                                           c.boundary);
+  // The L lattice on x in (0, ell), y = (j + ½) L from j = −⌈a/L⌉, kept at ≥ L/2 from the walls; or that lattice
+  // graded to the target diameter (resolution::graded_lattice; a particle of diameter h kept at ≥ h/2).
   std::vector<vec<2>> pts;
-  for (int i = 0; (i + 0.5) * L < ell; ++i)
-    for (int j = -static_cast<int>(std::ceil(a / L)); (j + 0.5) * L < a; ++j) {
-      const vec<2> x((i + 0.5) * L, (j + 0.5) * L);
-      if (walls.signed_distance(x) >= 0.5 * L * (1.0 - 1e-12)) pts.push_back(x);
-    }
+  std::vector<double> vol;
+  if (c.graded_start) {
+    const auto& tf = p.resolution.target_diameter;
+    if (!tf) fail("run_multi_diameter: graded_start needs params.resolution.target_diameter (refine_narrow_section)");
+    auto g = resolution::graded_lattice(
+        vec<2>(0.0, -std::ceil(a / L) * L), vec<2>(ell, a), L,
+        [&](const vec<2>& x) {
+          resolution::target_point<2> tp;
+          tp.x = x;
+          tp.wall_distance = walls.signed_distance(x);
+          return tf(tp);
+        },
+        [&](const vec<2>& x, double h) { return walls.signed_distance(x) >= 0.5 * h * (1.0 - 1e-12); });
+    pts = std::move(g.x);
+    vol = std::move(g.volume);
+  } else {
+    for (int i = 0; (i + 0.5) * L < ell; ++i)
+      for (int j = -static_cast<int>(std::ceil(a / L)); (j + 0.5) * L < a; ++j) {
+        const vec<2> x((i + 0.5) * L, (j + 0.5) * L);
+        if (walls.signed_distance(x) >= 0.5 * L * (1.0 - 1e-12)) pts.push_back(x);
+      }
+    vol.assign(pts.size(), L * L);
+  }
   scheme::lsmps_state<2> s0(static_cast<index_t>(pts.size()));
-  for (std::size_t q = 0; q < pts.size(); ++q) s0.x().col(static_cast<index_t>(q)) = pts[q];
-  s0.get<field::volume>().setConstant(L * L);
+  for (std::size_t q = 0; q < pts.size(); ++q) {
+    s0.x().col(static_cast<index_t>(q)) = pts[q];
+    s0.get<field::volume>()[static_cast<index_t>(q)] = vol[q];
+  }
   simulation<Scene> sim(p, std::move(s0), &walls, &pb);
   multi_diameter_result r;
   r.particles = sim.state().n_real();
@@ -151,7 +182,15 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   r.p_min = 1e300;
   r.p_max = -1e300;
   bool in_window = false;  // the averaging window: |u| also goes to u_max_window
-  const auto extremes = [&](const auto&) { track_extremes(r, sim.state(), sim.time(), in_window); };
+  std::optional<io::progress_sink> progress;
+  if (c.progress_interval > 0.0) progress.emplace(std::cerr, c.progress_interval, io::progress_mode::plain);
+  const auto extremes = [&](const auto&) {
+    track_extremes(r, sim.state(), sim.time(), in_window);
+    if (progress)
+      progress->update({sim.time(), c.t_end, sim.counters().steps, sim.dt(), sim.last_solve().iterations,
+                        sim.state().n_real(),
+                        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()});
+  };
   sim.run_until(c.t_end - c.window, extremes);
   v_begin = volume();
   t_begin = sim.time();
