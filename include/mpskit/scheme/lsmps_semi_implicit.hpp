@@ -355,8 +355,11 @@ class lsmps_semi_implicit {
   const ppe::matrix& ppe_matrix() const { return A_; }
   const std::vector<index_t>& ppe_rows() const { return rows_; }  ///< the particle of each PPE row
   const boundary::pressure_flux& last_flux() const { return last_flux_; }  ///< pressure-boundary fluxes of the last step
-  const Eigen::VectorXd& packing_ratio() const { return c_pack_; }    ///< c of the last step (real + copies)
-  const points<D>& normals() const { return normal_; }                ///< normals of the last step
+  /// c of the last step (real + copies), in that step's particle order: after a step that resized the state
+  /// (splits, merges, inflow, outflow) entry i is no longer state() particle i. The same holds for normals(),
+  /// neighbours(), op() and diameter(i).
+  const Eigen::VectorXd& packing_ratio() const { return c_pack_; }
+  const points<D>& normals() const { return normal_; }  ///< normals of the last step (its order: packing_ratio())
   const time_step_controller& time_step() const { return dt_ctrl_; }  ///< Δt controller
   /// Split/merge ledger (Scene::resolution): one closed step per step() call.
   const resolution::conservation_ledger<D>& ledger() const { return ledger_; }
