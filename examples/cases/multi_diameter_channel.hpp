@@ -141,6 +141,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
                                           c.boundary);
   // The L lattice on x in (0, ell), y = (j + ½) L from j = −⌈a/L⌉, kept at ≥ L/2 from the walls; or that lattice
   // graded to the target diameter (resolution::graded_lattice; a particle of diameter h kept at ≥ h/2).
+  const auto keep = [&](const vec<2>& x, double h) { return walls.signed_distance(x) >= 0.5 * h * (1.0 - 1e-12); };
   std::vector<vec<2>> pts;
   std::vector<double> vol;
   if (c.graded_start) {
@@ -151,17 +152,17 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
         [&](const vec<2>& x) {
           resolution::target_point<2> tp;
           tp.x = x;
-          tp.wall_distance = walls.signed_distance(x);
+          if (tf.wants_context()) tp.wall_distance = walls.signed_distance(x);  // as split_merge: only when read
           return tf(tp);
         },
-        [&](const vec<2>& x, double h) { return walls.signed_distance(x) >= 0.5 * h * (1.0 - 1e-12); });
+        keep);
     pts = std::move(g.x);
     vol = std::move(g.volume);
   } else {
     for (int i = 0; (i + 0.5) * L < ell; ++i)
       for (int j = -static_cast<int>(std::ceil(a / L)); (j + 0.5) * L < a; ++j) {
         const vec<2> x((i + 0.5) * L, (j + 0.5) * L);
-        if (walls.signed_distance(x) >= 0.5 * L * (1.0 - 1e-12)) pts.push_back(x);
+        if (keep(x, L)) pts.push_back(x);
       }
     vol.assign(pts.size(), L * L);
   }
