@@ -3,7 +3,7 @@
 // the start-up series (validation-cases.md D1).
 // Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]   |   channel --duct [t_end] [L]
 //        |   channel --duct-multires [t_end]
-//        |   channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--progress S]
+//        |   channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] [--progress S]
 //   --duct:  the 3D square duct (W = 4 mm, 8 mm long, L = 0.5 mm) through pressure faces, and periodic with G/rho,
 //            against the start-up series: channel --duct [t_end] [L]
 //   --duct-multires [t_end]: that duct through pressure faces, split near its walls (cases::refine_duct_walls;
@@ -13,6 +13,7 @@
 //            entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 -> 0.25 mm, R = 3)
 //            --graded: with --refine, start from particles at the target diameter (resolution::graded_lattice)
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
+//            --dt-ratio r: the Δt ladder Δt_max / r^k (time_step_params::ratio, in (1, 2]; default 2)
 //            --progress S: a progress row on stderr every S wall seconds
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
@@ -105,6 +106,12 @@ int run(int argc, char** argv) {
           return 2;
         }
         if (!number("--progress", argv[++a], mc.progress_interval)) return 2;
+      } else if (!std::strcmp(argv[a], "--dt-ratio")) {  // the Δt ladder's ratio r (time_step_params::ratio)
+        if (a + 1 >= argc) {
+          std::fprintf(stderr, "channel --multi: --dt-ratio needs a ratio r in (1, 2]\n");
+          return 2;
+        }
+        if (!number("--dt-ratio", argv[++a], mc.params.time.ratio)) return 2;
       } else if (!std::strcmp(argv[a], "--graded")) {  // start at the target diameter (with --refine)
         mc.graded_start = true;
       } else if (!std::strcmp(argv[a], "--refine")) {
@@ -124,7 +131,7 @@ int run(int argc, char** argv) {
         if (!number("t_end", argv[a], mc.t_end)) return 2;
         ++positional;
       } else {
-        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--progress S] (unexpected '%s')\n",
+        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] [--progress S] (unexpected '%s')\n",
                      argv[a]);
         return 2;
       }

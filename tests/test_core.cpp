@@ -13,6 +13,7 @@
 #include "mpskit/core/fields.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/core/state.hpp"
+#include "mpskit/scheme/time_step.hpp"
 
 using namespace mpskit;
 
@@ -171,6 +172,72 @@ TEST_SUITE("core") {
   }
 }
 
+// The Δt controller (scheme/time_step.hpp) driven by a given limit: L = 1, ν = 0, u = α_C / limit.
+namespace {
+double step_to(scheme::time_step_controller& c, double limit, long step = 0) {
+  return c.next(1.0, c.params().courant / limit, 0.0, step, 0);
+}
+}  // namespace
+
+TEST_SUITE("core") {
+  TEST_CASE("scheme: the Δt ladder takes the largest rung under the limit and climbs one rung with hysteresis") {
+    for (const double r : {2.0, std::pow(2.0, 0.25), 1.1}) {
+      CAPTURE(r);
+      scheme::time_step_params p;
+      p.dt_max = 1e-3;
+      p.ratio = r;
+      scheme::time_step_controller c(p);
+      // Down: every limit in [dt_max 2^-12, dt_max] gives the largest rung dt_max / r^k ≤ limit, i.e.
+      // limit / r < Δt ≤ limit (the ladder's whole point: with r = 2 up to half the allowed Δt is lost).
+      std::mt19937 rng(7);
+      std::uniform_real_distribution<double> e(-12.0, 0.0);
+      double lim = p.dt_max;
+      for (int n = 0; n < 200; ++n) {
+        lim = std::min(lim, p.dt_max * std::exp2(e(rng)) * 4.0);  // non-increasing: the controller never climbs
+        const double dt = step_to(c, lim);
+        const int k = c.state().halvings;
+        CHECK(dt <= lim);
+        if (k > 0) CHECK(dt * r > lim * (1.0 - 1e-12));
+        CHECK(dt == doctest::Approx(p.dt_max * std::pow(r, -k)).epsilon(1e-14));
+        if (r == 2.0) CHECK(dt == std::ldexp(p.dt_max, -k));  // bitwise the Δt_max / 2^k of before the ratio
+      }
+      // Up: under a constant large limit Δt climbs one rung per hold_steps + 1 calls while r Δt hysteresis ≤ limit,
+      // and stops at the first rung above limit / (r hysteresis).
+      const int k0 = c.state().halvings;
+      const double big = c.dt() * std::pow(r, 4) * p.hysteresis * 0.999;  // three rungs up, not four
+      REQUIRE(big < p.dt_max);
+      long changes = c.state().changes;
+      int climbs = 0;
+      for (int n = 0; n < 20 * (p.hold_steps + 1); ++n) {
+        step_to(c, big);
+        if (c.state().changes != changes) {
+          ++climbs;
+          changes = c.state().changes;
+          CHECK(c.state().held == 0);
+        }
+      }
+      const double dt = c.dt();
+      CHECK(dt <= big);
+      CHECK(r * dt * p.hysteresis > big);
+      CHECK(climbs == k0 - c.state().halvings);
+      CHECK(climbs == 3);
+    }
+  }
+
+  TEST_CASE("scheme: the Δt ladder collapses at dt_max / 2^max_halvings whatever its ratio") {
+    for (const double r : {2.0, std::pow(2.0, 0.25), 1.05}) {
+      CAPTURE(r);
+      scheme::time_step_params p;
+      p.ratio = r;
+      p.max_halvings = 20;
+      scheme::time_step_controller above(p), below(p);
+      CHECK_NOTHROW(step_to(above, p.dt_max * std::exp2(-19.9)));
+      CHECK_THROWS_WITH_AS(step_to(below, p.dt_max * std::exp2(-20.0 - std::log2(r) - 1e-3), 42),
+                           doctest::Contains("time step collapsed at step 42"), mpskit::error);
+    }
+  }
+}
+
 TEST_SUITE("threads") {
   TEST_CASE("core: reductions are bitwise identical for 1 and 2 threads") {
 #ifdef _OPENMP
@@ -217,6 +284,15 @@ TEST_SUITE("bad_input") {
     CHECK_THROWS_AS(s.promote_ghosts({1}), mpskit::error);  // not a ghost
     s.clear_ghosts();
     CHECK(s.size() == 4);
+  }
+
+  TEST_CASE("scheme: the Δt ladder refuses a ratio outside (1, 2]") {
+    for (const double r : {1.0, 0.5, 2.5, std::nan("")}) {
+      CAPTURE(r);
+      scheme::time_step_params p;
+      p.ratio = r;
+      CHECK_THROWS_WITH_AS(scheme::time_step_controller{p}, doctest::Contains("time_step_params.ratio"), mpskit::error);
+    }
   }
 
   TEST_CASE("core: validator lists every bad value with its accepted range") {

@@ -2,8 +2,11 @@
 /// \file scheme/time_step.hpp
 /// \brief Δt = min(α_C min L/|u|, α_ν min L²/ν, Δt_max) (Tanaka 2018 eq. 64 — the extraction writes α_c,
 /// the Courant coefficient is α_C = 0.1 — plus a viscous limit, ARCHITECTURE.md §4), changed
-/// piecewise-constantly (Δt_max / 2^k, halved at once when the limit requires, doubled only with
-/// hysteresis) so the PPE source sees a steady Δt; or a fixed Δt that is refused when above the limit.
+/// piecewise-constantly on a ladder Δt_max / r^k (r = 2 by default: halved at once when the limit requires,
+/// doubled only with hysteresis) so the PPE source sees a steady Δt; or a fixed Δt that is refused when above
+/// the limit. The ladder is ours (Tanaka asks for a constant Δt in the source and gives no rule for changing
+/// it); with r = 2 a flow limited by its Courant number runs at between 0.5 and 1 of its limit, with a finer
+/// r (e.g. 2^(1/4)) at between 1/r and 1 of it, for more frequent but smaller changes (docs/solver.md).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -19,17 +22,19 @@ enum class time_step_mode { adaptive, fixed };
 /// Numbers of the Δt controller.
 struct time_step_params {
   time_step_mode mode = time_step_mode::adaptive;  ///< adaptive or fixed
-  double dt_max = 1e-3;      ///< largest Δt (s); the adaptive Δt is dt_max / 2^k
+  double dt_max = 1e-3;      ///< largest Δt (s); the adaptive Δt is dt_max / ratio^k
+  double ratio = 2.0;        ///< r of the ladder Δt_max / r^k, in (1, 2]; 2 keeps Δt_max / 2^k exactly
   double dt_fixed = 0.0;     ///< Δt in fixed mode (s)
   double courant = 0.1;      ///< α_C (Tanaka 2018 Table 2: 0.1)
   double viscous = 0.1;      ///< α_ν in Δt ≤ α_ν L²/ν (our choice; the papers give none)
-  double hysteresis = 1.5;   ///< Δt doubles only when 2Δt ≤ limit / hysteresis
+  double hysteresis = 1.5;   ///< Δt grows one rung only when r Δt ≤ limit / hysteresis
   int hold_steps = 10;       ///< and only after this many steps at the current Δt
-  int max_halvings = 30;     ///< Δt below dt_max / 2^30 is a collapsed time step (error)
+  int max_halvings = 30;     ///< Δt below dt_max / 2^30 is a collapsed time step (error), whatever the ratio
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("time_step_params");
     v.positive("dt_max", dt_max).in_open_range("courant", courant, 0.0, 1.0).positive("viscous", viscous);
+    v.in_range("ratio", ratio, 1.0 + 1e-3, 2.0);
     v.in_range("hysteresis", hysteresis, 1.0, 100.0).in_range("hold_steps", hold_steps, 0, 1e6);
     v.in_range("max_halvings", max_halvings, 1, 60);
     if (mode == time_step_mode::fixed) v.positive("dt_fixed", dt_fixed);
@@ -39,7 +44,7 @@ struct time_step_params {
 
 /// The controller's state (part of a checkpoint).
 struct time_step_state {
-  int halvings = 0;        ///< k in Δt = dt_max / 2^k
+  int halvings = 0;        ///< k in Δt = dt_max / r^k (rungs down the ladder; halvings when r = 2)
   long held = 0;           ///< steps since the last change
   long changes = 0;        ///< number of changes so far
 };
@@ -47,7 +52,12 @@ struct time_step_state {
 /// Piecewise-constant Δt controller.
 class time_step_controller {
  public:
-  explicit time_step_controller(const time_step_params& p) : p_(p) { p_.validate(); }
+  explicit time_step_controller(const time_step_params& p) : p_(p) {
+    p_.validate();
+    // The rung below which Δt < dt_max / 2^max_halvings: the collapse test is the same Δt for every ratio.
+    max_rungs_ = p_.ratio == 2.0 ? p_.max_halvings
+                                 : static_cast<int>(std::ceil(p_.max_halvings * std::log(2.0) / std::log(p_.ratio)));
+  }
 
   /// The limit min(α_C L/u_max, α_ν L²/ν, Δt_max) for spacing L, fastest speed u_max, viscosity ν.
   double limit(double L, double u_max, double nu) const {
@@ -58,7 +68,8 @@ class time_step_controller {
   }
 
   /// Δt for the next step. Fixed mode: throws (naming step and the fastest particle) when above the
-  /// limit. Adaptive: halves as often as needed, doubles with hysteresis; throws when collapsed.
+  /// limit. Adaptive: steps down the ladder as often as needed, up one rung with hysteresis; throws when
+  /// collapsed.
   double next(double L, double u_max, double nu, long step, long fastest_particle) {
     const double lim = limit(L, u_max, nu);
     if (p_.mode == time_step_mode::fixed) {
@@ -70,12 +81,12 @@ class time_step_controller {
     }
     const int before = s_.halvings;
     while (dt() > lim) {
-      if (++s_.halvings > p_.max_halvings)
+      if (++s_.halvings > max_rungs_)
         fail("time step collapsed at step ", step, ": limit ", lim, " s below dt_max / 2^", p_.max_halvings,
              " (fastest particle ", fastest_particle, ", |u| = ", u_max, " m/s)");
     }
     if (s_.halvings == before && s_.halvings > 0 && s_.held >= p_.hold_steps &&
-        2.0 * dt() * p_.hysteresis <= lim)
+        p_.ratio * dt() * p_.hysteresis <= lim)
       --s_.halvings;
     if (s_.halvings != before) {
       s_.held = 0;
@@ -86,13 +97,18 @@ class time_step_controller {
     return dt();
   }
 
-  double dt() const { return p_.mode == time_step_mode::fixed ? p_.dt_fixed : std::ldexp(p_.dt_max, -s_.halvings); }  ///< current Δt
+  /// Current Δt (r = 2: exactly dt_max / 2^k, as before the ratio existed).
+  double dt() const {
+    if (p_.mode == time_step_mode::fixed) return p_.dt_fixed;
+    return p_.ratio == 2.0 ? std::ldexp(p_.dt_max, -s_.halvings) : p_.dt_max * std::pow(p_.ratio, -s_.halvings);
+  }
   const time_step_state& state() const { return s_; }   ///< for checkpoints
   void restore(const time_step_state& s) { s_ = s; }    ///< from a checkpoint
   const time_step_params& params() const { return p_; } ///< the numbers
 
  private:
   time_step_params p_;
+  int max_rungs_ = 0;
   time_step_state s_{};
 };
 
