@@ -2,7 +2,7 @@
 // driven by the body force G/ρ, and the same channel driven by pressure inflow/outflow boundaries, against
 // the start-up series (validation-cases.md D1).
 // Usage: channel [--full] [--periodic-only] [L] [t_end]   |   channel --pipe [t_end]   |   channel --duct [t_end] [L]
-//        |   channel --duct-multires [t_end]
+//        |   channel --duct-multires [t_end]   |   channel --a2 [t_end] [--ratio R] [--pressure] [--no-single]
 //        |   channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] [--progress S]
 //   --duct:  the 3D square duct (W = 4 mm, 8 mm long, L = 0.5 mm) through pressure faces, and periodic with G/rho,
 //            against the start-up series: channel --duct [t_end] [L]
@@ -15,10 +15,16 @@
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
 //            --dt-ratio r: the Δt ladder Δt_max / r^k (time_step_params::ratio, in (1, 2]; default 2)
 //            --progress S: a progress row on stderr every S wall seconds
+//   --a2:    Tanaka A2 (§5.2): the channel refined at its walls, 0.5/R mm there to 0.5 mm in the centre (R = 4 the
+//            paper's 0.125 -> 0.5 mm; cases::a2_target) from a graded start, then single resolution at 0.5/R mm with
+//            the same Δt; particle counts, wall times, errors against the start-up series. Periodic (5 mm) by default,
+//            to 0.1 s; --pressure: the paper's 100 mm between pressure faces (hours); --no-single: the multi-resolution
+//            run only
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s, ILUT-BiCGSTAB (Tanaka's single resolution
 //            is L = 0.125 mm: pass it as L; expect hours on one core).
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -36,6 +42,97 @@ namespace {
 struct long_channel_scene : mpskit::cases::poiseuille_pressure_scene {
   using solver = mpskit::ppe::bicgstab;
 };
+struct long_channel_multires_scene : long_channel_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+
+// Tanaka A2 (§5.2): the channel refined at its walls, L_f = 0.5 mm / R there and 0.5 mm in the centre (R = 4: the
+// paper's 0.125 -> 0.5 mm), from a graded start, against single resolution at L_f with the same Δt = 0.1 L_f²/ν.
+// Periodic (5 mm period, body force G/ρ) by default; --pressure: the paper's 100 mm between pressure faces.
+int run_a2(int argc, char** argv) {
+  double t_end = 0.1, ratio = 4.0;
+  bool pressure = false, single = true;
+  int positional = 0;
+  const auto number = [](const char* what, const char* s, double& v) {
+    char* end = nullptr;
+    v = std::strtod(s, &end);
+    if (end == s || *end != '\0' || !(v > 0.0)) {
+      std::fprintf(stderr, "channel --a2: %s must be a positive number (got '%s')\n", what, s);
+      return false;
+    }
+    return true;
+  };
+  for (int a = 2; a < argc; ++a) {
+    if (!std::strcmp(argv[a], "--pressure")) {
+      pressure = true;
+    } else if (!std::strcmp(argv[a], "--no-single")) {
+      single = false;
+    } else if (!std::strcmp(argv[a], "--ratio")) {
+      if (a + 1 >= argc || !number("--ratio", argv[++a], ratio)) return 2;
+      if (ratio < 1.0) {
+        std::fprintf(stderr, "channel --a2: --ratio takes a diameter ratio >= 1 (got %g)\n", ratio);
+        return 2;
+      }
+    } else if (positional == 0) {
+      if (!number("t_end", argv[a], t_end)) return 2;
+      ++positional;
+    } else {
+      std::fprintf(stderr, "usage: channel --a2 [t_end] [--ratio R] [--pressure] [--no-single] (unexpected '%s')\n", argv[a]);
+      return 2;
+    }
+  }
+  mpskit::cases::poiseuille_config c;  // H = 10 mm, G = 1000 Pa/m, mu = 0.1 Pa s, L = 0.5 mm (the coarse size)
+  const double Lc = c.L, Lf = Lc / ratio, nu = c.mu / c.rho;
+  c.length = pressure ? 0.1 : 0.005;
+  c.t_end = t_end;
+  c.probe_times.clear();
+  for (double tp : {0.05, 0.1, 0.2})
+    if (tp < t_end) c.probe_times.push_back(tp);
+  // Δt = 0.1 L²/ν at the smallest particle; with pressure faces at the smallest boundary piece (the faces carry the
+  // target spacing, min(L_c, L*), cut into whole pieces: at most 4 % below L_f here).
+  c.dt = 0.1 * (pressure ? 0.96 * Lf : Lf) * (pressure ? 0.96 * Lf : Lf) / nu;
+  const auto target = mpskit::cases::a2_target(c.H, Lf, Lc);
+  mpskit::cases::poiseuille_config m = c;
+  m.params.resolution.target_diameter = target;
+  m.graded_start = true;
+  if (pressure) m.boundary_spacing = [=](const mpskit::vec<2>& x) { return std::min(Lc, target(x)); };
+  mpskit::cases::poiseuille_config f = c;
+  f.L = Lf;
+  std::printf("Tanaka A2: H = %.0f mm, %s, G = %.0f Pa/m, mu = %.2f Pa s; multi-resolution %.4g -> %.4g mm (graded "
+              "start) against single resolution at %.4g mm; dt = %.3e s, to %.3f s\n",
+              c.H * 1e3, pressure ? "100 mm between pressure faces (100 Pa -> 0 Pa)" : "periodic (5 mm), body force G/rho",
+              c.G, c.mu, Lf * 1e3, Lc * 1e3, Lf * 1e3, c.dt, t_end);
+  const auto report = [&](const char* name, const auto& r) {
+    std::printf("%s: %lld -> %lld particles, L in [%.4g, %.4g] mm, %ld steps, %.1f s wall, %.1f PPE iterations per step, "
+                "splits %ld, merges %ld, guarded %ld\n",
+                name, static_cast<long long>(r.particles), static_cast<long long>(r.particles_end), r.L_min * 1e3,
+                r.L_max * 1e3, r.steps, r.wall_seconds,
+                static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), r.splits, r.merges,
+                r.guarded);
+    for (const auto& pr : r.probes) std::printf("  t = %.3f s: max |u - series| / u_max = %.4f\n", pr.t, pr.max_error);
+    std::printf("  t = %.3f s: vs series %.4f, vs steady %.4f\n", r.end.t, r.end.max_error, r.steady_error);
+  };
+  const auto run_one = [&](const mpskit::cases::poiseuille_config& cc, bool multi) {
+    if (pressure)
+      return multi ? mpskit::cases::run_poiseuille_pressure<long_channel_multires_scene>(cc)
+                   : mpskit::cases::run_poiseuille_pressure<long_channel_scene>(cc);
+    mpskit::cases::poiseuille_pressure_result r;
+    static_cast<mpskit::cases::poiseuille_result&>(r) =
+        multi ? mpskit::cases::run_poiseuille_periodic<mpskit::cases::poiseuille_multires_scene>(cc)
+              : mpskit::cases::run_poiseuille_periodic(cc);
+    return r;
+  };
+  const auto rm = run_one(m, true);
+  report("multi-resolution", rm);
+  if (!single) return 0;
+  const auto rs = run_one(f, false);
+  report("single resolution", rs);
+  std::printf("particles at the start: %.1f %% fewer (%lld against %lld; the paper: 59.4 %%, 26 708 against 65 870 in "
+              "its 100 mm channel); wall time %.2f of single resolution (the paper: 0.140)\n",
+              100.0 * (1.0 - static_cast<double>(rm.particles) / static_cast<double>(rs.particles)),
+              static_cast<long long>(rm.particles), static_cast<long long>(rs.particles), rm.wall_seconds / rs.wall_seconds);
+  return 0;
+}
 
 int run(int argc, char** argv) {
   mpskit::cases::poiseuille_config c;
@@ -84,6 +181,7 @@ int run(int argc, char** argv) {
                 r.outflow, r.ledger_error, r.guarded);
     return 0;
   }
+  if (argc > 1 && !std::strcmp(argv[1], "--a2")) return run_a2(argc, argv);
   if (argc > 1 && !std::strcmp(argv[1], "--multi")) {
     mpskit::cases::multi_diameter_config mc;
     double ratio = 0.0;  // --refine R: split 1:R entering the narrow section (issue #9's case)

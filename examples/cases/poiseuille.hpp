@@ -14,6 +14,7 @@
 
 #include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
+#include "mpskit/resolution/graded_lattice.hpp"
 #include "mpskit/scene.hpp"
 
 namespace mpskit::cases {
@@ -29,6 +30,24 @@ struct poiseuille_pressure_scene : lsmps_defaults<2> {
   using surface = mpskit::scheme::no_surface;
   using boundary = mpskit::boundary::pressure;
 };
+
+/// The same two channels with splitting and merging (Tanaka §4.4; issue #9's poiseuille_multires).
+struct poiseuille_multires_scene : poiseuille_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+struct poiseuille_pressure_multires_scene : poiseuille_pressure_scene {
+  using resolution = mpskit::resolution::split_merge<>;
+};
+
+/// Tanaka A2's layout (§5.2, Fig. 9; the function is ours, the figure is not in the text): L* = Lf within 1.5 mm of
+/// a wall, a linear ramp to 1.05 Lc at 3.5 mm (the coarse Lc kept in the centre; 1.05 so that Lc does not merge),
+/// for a channel with walls at y = 0 and y = H.
+inline std::function<double(const vec<2>&)> a2_target(double H, double Lf, double Lc) {
+  return [=](const vec<2>& x) {
+    const double d = std::min(x[1], H - x[1]);
+    return Lf + std::clamp((d - 1.5e-3) / 2e-3, 0.0, 1.0) * (1.05 * Lc - Lf);
+  };
+}
 
 /// Plane Poiseuille start-up from rest (validation-cases.md D1): u(y, t) = G/(2μ) y(H − y) −
 /// 4 G H²/(μ π³) Σ_{n odd} sin(nπy/H)/n³ exp(−n²π²νt/H²).
@@ -68,6 +87,10 @@ struct poiseuille_config {
   /// give the target diameter (boundary::pressure_boundary's spacing constructor).
   std::function<double(const vec<2>&)> boundary_spacing;
   std::vector<double> probe_times{0.05, 0.1};  ///< times at which the transient is compared with the series
+  /// Start from the L lattice graded to params.resolution.target_diameter (resolution::graded_lattice) instead of
+  /// the L lattice, which a multi-resolution scene would split in its first steps (docs/resolution.md, "Graded
+  /// start"). Flow along x only (axis 0).
+  bool graded_start = false;
   int axis = 0;             ///< flow (periodic) axis: 0 = x (walls in y), 1 = y (walls in x; the same channel mirrored)
   scheme::lsmps_params<2> params{};  ///< scheme numbers (rho, nu, g, domain, Δt are set from the above)
 };
@@ -124,6 +147,41 @@ inline scheme::lsmps_state<2> channel_state(double length, double H, double L) {
       s.x().col(k) = vec<2>((i + 0.5) * L, (j + 0.5) * L);
       V[k] = L * L;
     }
+  return s;
+}
+
+/// The start of a run over [0, length) × [0, H): the L lattice, or with c.graded_start that lattice graded to the
+/// target diameter (a target reading the context gets the wall distance min(y, H − y)). A graded particle must keep
+/// half its diameter from the walls, as split_merge's children do; a layer beside a wall at an odd generation (a
+/// diagonal pair, a quarter cell from the cell's edge: 0.35 of its diameter) does not, and is refused (the channel
+/// would start with a gap at the wall) instead of dropped or kept too close.
+inline scheme::lsmps_state<2> channel_start(const poiseuille_config& c, double length) {
+  if (!c.graded_start) return channel_state(length, c.H, c.L);
+  const auto& tf = c.params.resolution.target_diameter;
+  if (!tf) fail("poiseuille_config: graded_start needs params.resolution.target_diameter");
+  if (c.axis != 0) fail("poiseuille_config: graded_start is for the flow along x (axis 0), got axis ", c.axis);
+  const double H = c.H;
+  const auto g = resolution::graded_lattice(
+      vec<2>(0.0, 0.0), vec<2>(length, H), c.L,
+      [&](const vec<2>& x) {
+        resolution::target_point<2> tp;
+        tp.x = x;
+        if (tf.wants_context()) tp.wall_distance = std::min(x[1], H - x[1]);
+        return tf(tp);
+      },
+      [&](const vec<2>& x, double h) { return std::min(x[1], H - x[1]) >= 0.5 * h * (1.0 - 1e-12); });
+  double v = 0.0;
+  for (double vq : g.volume) v += vq;
+  const double cells = std::ceil(length / c.L - 0.5) * std::ceil(H / c.L - 0.5) * c.L * c.L;  // (i + ½) L < length
+  if (std::abs(v - cells) > 1e-12 * cells)
+    fail("poiseuille_config: the graded start leaves ", (cells - v) / cells * 100.0, " % of the channel's volume "
+         "without particles: the target asks for an odd number of splits beside a wall (diagonal pairs closer than "
+         "half their diameter to it); choose a target diameter L / 2^(k/2) with k even there");
+  scheme::lsmps_state<2> s(static_cast<index_t>(g.size()));
+  for (std::size_t q = 0; q < g.size(); ++q) {
+    s.x().col(static_cast<index_t>(q)) = g.x[q];
+    s.get<field::volume>()[static_cast<index_t>(q)] = g.volume[q];
+  }
   return s;
 }
 
@@ -189,7 +247,7 @@ poiseuille_result run_poiseuille_periodic(poiseuille_config c) {
   p.time.dt_fixed = c.dt;
   p.time.dt_max = c.dt;
   geometry::polygon_mesh<2> mesh = channel_mesh(0.0, c.length, c.H, 8.0 * c.L);
-  scheme::lsmps_state<2> s0 = channel_state(c.length, c.H, c.L);
+  scheme::lsmps_state<2> s0 = channel_start(c, c.length);
   if (ax == 1) mirror_channel(mesh, s0);
   const geometry::polygon_set<2> walls(std::move(mesh));
   simulation<Scene> sim(p, std::move(s0), &walls);
@@ -259,7 +317,7 @@ poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const bo
   fm.elements.col(1) << 2, 3;
   const auto spacing = [&](const vec<2>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : c.L; };
   const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {dp, 0.0}, spacing, bp);
-  simulation<Scene> sim(p, channel_state(ell, c.H, c.L), &walls, &pb);
+  simulation<Scene> sim(p, channel_start(c, ell), &walls, &pb);
   const poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
   poiseuille_pressure_result r;
   r.particles = sim.state().n_real();
