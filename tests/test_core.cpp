@@ -231,6 +231,10 @@ TEST_SUITE("core") {
       p.ratio = r;
       p.max_halvings = 20;
       scheme::time_step_controller above(p), below(p);
+      // The deepest rung is the last one at or above dt_max / 2^20 (what a checkpoint's rung is checked against).
+      CHECK(std::pow(r, -above.max_rungs()) <= std::exp2(-20.0) * (1.0 + 1e-12));
+      CHECK(std::pow(r, -(above.max_rungs() - 1)) > std::exp2(-20.0));
+      if (r == 2.0) CHECK(above.max_rungs() == 20);
       CHECK_NOTHROW(step_to(above, p.dt_max * std::exp2(-19.9)));
       CHECK_THROWS_WITH_AS(step_to(below, p.dt_max * std::exp2(-20.0 - std::log2(r) - 1e-3), 42),
                            doctest::Contains("time step collapsed at step 42"), mpskit::error);

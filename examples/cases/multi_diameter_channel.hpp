@@ -149,12 +149,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
     if (!tf) fail("run_multi_diameter: graded_start needs params.resolution.target_diameter (refine_narrow_section)");
     auto g = resolution::graded_lattice(
         vec<2>(0.0, -std::ceil(a / L) * L), vec<2>(ell, a), L,
-        [&](const vec<2>& x) {
-          resolution::target_point<2> tp;
-          tp.x = x;
-          if (tf.wants_context()) tp.wall_distance = walls.signed_distance(x);  // as split_merge: only when read
-          return tf(tp);
-        },
+        [&](const vec<2>& x) { return tf(tf.point(x, [&](const vec<2>& y) { return walls.signed_distance(y); })); },
         keep);
     pts = std::move(g.x);
     vol = std::move(g.volume);

@@ -163,12 +163,7 @@ inline scheme::lsmps_state<2> channel_start(const poiseuille_config& c, double l
   const double H = c.H;
   const auto g = resolution::graded_lattice(
       vec<2>(0.0, 0.0), vec<2>(length, H), c.L,
-      [&](const vec<2>& x) {
-        resolution::target_point<2> tp;
-        tp.x = x;
-        if (tf.wants_context()) tp.wall_distance = std::min(x[1], H - x[1]);
-        return tf(tp);
-      },
+      [&](const vec<2>& x) { return tf(tf.point(x, [H](const vec<2>& y) { return std::min(y[1], H - y[1]); })); },
       [&](const vec<2>& x, double h) { return std::min(x[1], H - x[1]) >= 0.5 * h * (1.0 - 1e-12); });
   double v = 0.0;
   for (double vq : g.volume) v += vq;

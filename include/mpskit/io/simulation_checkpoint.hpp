@@ -75,9 +75,9 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
   if (ts.size() != 3) fail("load_simulation: '", file, "': section 'semi_implicit.time_step' holds ", ts.size(), " values, expected 3");
   for (std::int64_t v : c)
     if (v < 0) fail("load_simulation: '", file, "': a counter is negative (", v, ")");
-  if (ts[0] < 0 || ts[0] > sim.time_step().params().max_halvings || ts[1] < 0 || ts[2] < 0)
+  if (ts[0] < 0 || ts[0] > sim.time_step().max_rungs() || ts[1] < 0 || ts[2] < 0)
     fail("load_simulation: '", file, "': time-step state {", ts[0], ", ", ts[1], ", ", ts[2],
-         "} out of range (halvings in [0, ", sim.time_step().params().max_halvings, "], counts >= 0)");
+         "} out of range (rungs in [0, ", sim.time_step().max_rungs(), "], counts >= 0)");
   scheme::semi_implicit_counters k;
   k.steps = c[0];
   k.ppe_iterations = c[1];

@@ -130,6 +130,16 @@ class target_diameter_fn {
   bool wants_context() const { return context_; }
   /// L* at p.
   double operator()(const target_point<D>& p) const { return f_(p); }
+  /// The target_point at a position where there is no particle (a start lattice, an inflow point): the wall
+  /// distance from `wall_distance(x)`, called only when the callable reads the context; surface distance +inf and
+  /// index npos. split_merge, which also fills the surface distance and the index, builds its own.
+  template <class WallDistance>
+  target_point<D> point(const vec<D>& x, const WallDistance& wall_distance) const {
+    target_point<D> p;
+    p.x = x;
+    if (context_) p.wall_distance = wall_distance(x);
+    return p;
+  }
   /// L* at p, refused unless finite and > 0; the message reads "<who>: target_diameter returned L* at
   /// <where()>: accepted range (0, inf)". `where` returns the place as a string and is called only on failure
   /// (the check runs per particle per step). Used by split_merge and by the stepper's pressure-face check.

@@ -678,13 +678,13 @@ class lsmps_semi_implicit {
   void check_boundary_spacing() const {
     const auto& rp = p_.resolution;
     if (!rp.split) return;  // nothing splits
-    const bool ctx = rp.target_diameter.wants_context();
     for (index_t k = 0; k < pb_->size(); ++k) {
       const double Lp = pb_->diameters()[k];
-      resolution::target_point<D> tp;
-      tp.x = pb_->x().col(k) + pb_->params().alpha_i * Lp * pb_->normals().col(k);
-      if constexpr (has_walls)
-        if (ctx) tp.wall_distance = walls_->signed_distance(tp.x);
+      const auto tp = rp.target_diameter.point(
+          vec<D>(pb_->x().col(k) + pb_->params().alpha_i * Lp * pb_->normals().col(k)), [this](const vec<D>& y) {
+            if constexpr (has_walls) return walls_->signed_distance(y);
+            else return std::numeric_limits<double>::infinity();
+          });
       const double Ls = rp.target_diameter.checked(tp, "lsmps_semi_implicit", [&] {
         return mpskit::detail::concat("the inflow point (", tp.x.transpose(), ") of pressure-boundary particle ", k);
       });

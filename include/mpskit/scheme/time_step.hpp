@@ -102,6 +102,8 @@ class time_step_controller {
     if (p_.mode == time_step_mode::fixed) return p_.dt_fixed;
     return p_.ratio == 2.0 ? std::ldexp(p_.dt_max, -s_.halvings) : p_.dt_max * std::pow(p_.ratio, -s_.halvings);
   }
+  /// The deepest rung k before the collapse (max_halvings when r = 2); a checkpoint's k is valid in [0, max_rungs()].
+  int max_rungs() const { return max_rungs_; }
   const time_step_state& state() const { return s_; }   ///< for checkpoints
   void restore(const time_step_state& s) { s_ = s; }    ///< from a checkpoint
   const time_step_params& params() const { return p_; } ///< the numbers
