@@ -46,6 +46,17 @@ struct long_channel_multires_scene : long_channel_scene {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
+// Reads a positive number from s into v; on failure prints "channel <mode>: <what> must be ..." and returns false.
+bool positive_number(const char* mode, const char* what, const char* s, double& v) {
+  char* end = nullptr;
+  v = std::strtod(s, &end);
+  if (end == s || *end != '\0' || !(v > 0.0)) {
+    std::fprintf(stderr, "channel %s: %s must be a positive number (got '%s')\n", mode, what, s);
+    return false;
+  }
+  return true;
+}
+
 // Tanaka A2 (§5.2): the channel refined at its walls, L_f = 0.5 mm / R there and 0.5 mm in the centre (R = 4: the
 // paper's 0.125 -> 0.5 mm), from a graded start, against single resolution at L_f with the same Δt = 0.1 L_f²/ν.
 // Periodic (5 mm period, body force G/ρ) by default; --pressure: the paper's 100 mm between pressure faces.
@@ -53,15 +64,7 @@ int run_a2(int argc, char** argv) {
   double t_end = 0.1, ratio = 4.0;
   bool pressure = false, single = true;
   int positional = 0;
-  const auto number = [](const char* what, const char* s, double& v) {
-    char* end = nullptr;
-    v = std::strtod(s, &end);
-    if (end == s || *end != '\0' || !(v > 0.0)) {
-      std::fprintf(stderr, "channel --a2: %s must be a positive number (got '%s')\n", what, s);
-      return false;
-    }
-    return true;
-  };
+  const auto number = [](const char* what, const char* s, double& v) { return positive_number("--a2", what, s, v); };
   for (int a = 2; a < argc; ++a) {
     if (!std::strcmp(argv[a], "--pressure")) {
       pressure = true;
@@ -186,15 +189,7 @@ int run(int argc, char** argv) {
     mpskit::cases::multi_diameter_config mc;
     double ratio = 0.0;  // --refine R: split 1:R entering the narrow section (issue #9's case)
     int positional = 0;
-    const auto number = [](const char* what, const char* s, double& v) {
-      char* end = nullptr;
-      v = std::strtod(s, &end);
-      if (end == s || *end != '\0' || !(v > 0.0)) {
-        std::fprintf(stderr, "channel --multi: %s must be a positive number (got '%s')\n", what, s);
-        return false;
-      }
-      return true;
-    };
+    const auto number = [](const char* what, const char* s, double& v) { return positive_number("--multi", what, s, v); };
     for (int a = 2; a < argc; ++a) {
       if (!std::strcmp(argv[a], "--neumann-points")) {  // the wall copies as Neumann points (opt-in wall rows)
         mc.params.copy_row = mpskit::scheme::copy_row_kind::neumann_points;

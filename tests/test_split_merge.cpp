@@ -309,6 +309,23 @@ TEST_SUITE("split_merge") {
     }
   }
 
+  // min r_ij/L_ij of a graded lattice over pairs closer than L in x (a sweep over the particles sorted by x; every
+  // pair farther apart has r_ij ≥ L ≥ L_ij), L_ij the mean of the two diameters V^(1/D).
+  template <int D>
+  double graded_min_ratio(const res::graded_points<D>& g, double L) {
+    const auto diameter = [&](std::size_t i) { return D == 2 ? std::sqrt(g.volume[i]) : std::cbrt(g.volume[i]); };
+    std::vector<std::size_t> by_x(g.size());
+    std::iota(by_x.begin(), by_x.end(), std::size_t{0});
+    std::sort(by_x.begin(), by_x.end(), [&](std::size_t a, std::size_t b) { return g.x[a].x() < g.x[b].x(); });
+    double rmin = 1e300;
+    for (std::size_t a = 0; a < by_x.size(); ++a)
+      for (std::size_t b = a + 1; b < by_x.size() && g.x[by_x[b]].x() - g.x[by_x[a]].x() < L; ++b) {
+        const std::size_t i = by_x[a], j = by_x[b];
+        rmin = std::min(rmin, (g.x[i] - g.x[j]).norm() / (0.5 * (diameter(i) + diameter(j))));
+      }
+    return rmin;
+  }
+
   TEST_CASE("graded_lattice: lattices kept, volumes halved exactly, a fixed point of the trigger, no clustering") {
     using T = res::tanaka_thresholds;
     const double L = std::ldexp(1.0, -10);  // a power of two: positions, volumes L²/2^k and their sums are exact
@@ -359,7 +376,7 @@ TEST_SUITE("split_merge") {
             return L * (1.0 - std::clamp((25 * L - d) / (15 * L), 0.0, 1.0) * (1.0 - 1.0 / R));
           };
           const auto g = res::graded_lattice(vec<2>(0, 0), vec<2>(60 * L, 20 * L), L, target, all);
-          double V = 0.0, rmin = 1e300;
+          double V = 0.0;
           int kmax = 0, outside = 0, asking = 0;
           for (std::size_t a = 0; a < g.size(); ++a) {
             V += g.volume[a];
@@ -371,15 +388,7 @@ TEST_SUITE("split_merge") {
             // (squares by construction; diagonal pairs were decided at their cell's centre, see the header).
             asking += T::decide<2>(target(x), h) != res::want::none;
           }
-          // Pairs closer than L in x (a sweep over the particles sorted by x; r_ij/L_ij ≥ 1 beyond).
-          std::vector<std::size_t> by_x(g.size());
-          std::iota(by_x.begin(), by_x.end(), std::size_t{0});
-          std::sort(by_x.begin(), by_x.end(), [&](std::size_t a, std::size_t b) { return g.x[a].x() < g.x[b].x(); });
-          for (std::size_t a = 0; a < by_x.size(); ++a)
-            for (std::size_t b = a + 1; b < by_x.size() && g.x[by_x[b]].x() - g.x[by_x[a]].x() < L; ++b) {
-              const std::size_t i = by_x[a], j = by_x[b];
-              rmin = std::min(rmin, (g.x[i] - g.x[j]).norm() / (0.5 * (std::sqrt(g.volume[i]) + std::sqrt(g.volume[j]))));
-            }
+          const double rmin = graded_min_ratio(g, L);
           CHECK(outside == 0);  // strictly inside the box
           CHECK(asking == 0);
           CHECK(V == 1200.0 * L * L);  // the 60 × 20 start cells' area, bitwise (powers of two)
@@ -475,7 +484,7 @@ TEST_SUITE("split_merge") {
             return L * (1.0 - std::clamp((6 * L - d) / (4 * L), 0.0, 1.0) * (1.0 - 1.0 / R));
           };
           const auto g = res::graded_lattice(vec<3>(0, 0, 0), vec<3>(16 * L, 4 * L, 4 * L), L, target, all);
-          double V = 0.0, rmin = 1e300;
+          double V = 0.0;
           int kmax = 0, outside = 0, asking = 0;
           for (std::size_t a = 0; a < g.size(); ++a) {
             V += g.volume[a];
@@ -484,15 +493,7 @@ TEST_SUITE("split_merge") {
             outside += !((x.array() > 0.0).all() && x.x() < 16 * L && x.y() < 4 * L && x.z() < 4 * L);
             asking += T::decide<3>(target(x), std::cbrt(g.volume[a])) != res::want::none;
           }
-          std::vector<std::size_t> by_x(g.size());
-          std::iota(by_x.begin(), by_x.end(), std::size_t{0});
-          std::sort(by_x.begin(), by_x.end(), [&](std::size_t a, std::size_t b) { return g.x[a].x() < g.x[b].x(); });
-          for (std::size_t a = 0; a < by_x.size(); ++a)
-            for (std::size_t b = a + 1; b < by_x.size() && g.x[by_x[b]].x() - g.x[by_x[a]].x() < L; ++b) {
-              const std::size_t i = by_x[a], j = by_x[b];
-              rmin = std::min(rmin, (g.x[i] - g.x[j]).norm() /
-                                        (0.5 * (std::cbrt(g.volume[i]) + std::cbrt(g.volume[j]))));
-            }
+          const double rmin = graded_min_ratio(g, L);
           CHECK(outside == 0);
           CHECK(V == 256.0 * L * L * L);  // the 16 × 4 × 4 start cells' volume, bitwise (powers of two)
           int k = 0;
