@@ -18,8 +18,8 @@
 //   --a2:    Tanaka A2 (§5.2): the channel refined at its walls, 0.5/R mm there to 0.5 mm in the centre (R = 4 the
 //            paper's 0.125 -> 0.5 mm; cases::a2_target) from a graded start, then single resolution at 0.5/R mm with
 //            the same Δt; particle counts, wall times, errors against the start-up series. Periodic (5 mm) by default,
-//            to 0.1 s; --pressure: the paper's 100 mm between pressure faces (hours); --no-single: the multi-resolution
-//            run only
+//            to 0.1 s (≈ 7 + 12 min of one core); --pressure: the paper's 100 mm between pressure faces (28 000
+//            particles, ≈ 4 s per step: days to 0.5 s); --no-single: the multi-resolution run only
 //   --pipe:  the 3D pipe (R = 5 mm, 8 particles per radius, periodic along z) to 0.2 s against the Szymanski series
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s, ILUT-BiCGSTAB (Tanaka's single resolution
