@@ -13,7 +13,7 @@
 //            entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 -> 0.25 mm, R = 3)
 //            --graded: with --refine, start from particles at the target diameter (resolution::graded_lattice)
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
-//            --dt-ratio r: the Δt ladder Δt_max / r^k (time_step_params::ratio, in (1, 2]; default 2)
+//            --dt-ratio r: the Δt ladder Δt_max / r^k (time_step_params::ratio, in [1.001, 2]; default 2)
 //            --progress S: a progress row on stderr every S wall seconds
 //   --a2:    Tanaka A2 (§5.2): the channel refined at its walls, 0.5/R mm there to 0.5 mm in the centre (R = 4 the
 //            paper's 0.125 -> 0.5 mm; cases::a2_target) from a graded start, then single resolution at 0.5/R mm with
@@ -201,7 +201,7 @@ int run(int argc, char** argv) {
         if (!number("--progress", argv[++a], mc.progress_interval)) return 2;
       } else if (!std::strcmp(argv[a], "--dt-ratio")) {  // the Δt ladder's ratio r (time_step_params::ratio)
         if (a + 1 >= argc) {
-          std::fprintf(stderr, "channel --multi: --dt-ratio needs a ratio r in (1, 2]\n");
+          std::fprintf(stderr, "channel --multi: --dt-ratio needs a ratio r in [1.001, 2]\n");
           return 2;
         }
         if (!number("--dt-ratio", argv[++a], mc.params.time.ratio)) return 2;

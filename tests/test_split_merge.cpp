@@ -408,6 +408,7 @@ TEST_SUITE("split_merge") {
                                          [&](const vec<2>& x, double h) { return x.y() - 0.3 * L >= 0.5 * h; });
       for (const auto& x : g.x) CHECK(x.y() >= 0.75 * L);
       CHECK(g.size() == 28u);  // 16 cells × 2 particles, the 4 lower ones of the bottom row dropped
+      CHECK(g.dropped_volume == 2.0 * L * L);  // their volume, L²/2 each, reported (bitwise: powers of two)
       const auto t = [&](const vec<2>&) { return L; };
       CHECK_THROWS_WITH_AS(res::graded_lattice(vec<2>(0, 0), vec<2>(L, L), 0.0, t, all), doctest::Contains("start spacing"),
                            mpskit::error);
@@ -443,6 +444,7 @@ TEST_SUITE("split_merge") {
       const auto g = res::graded_lattice(vec<3>(0, 0, 0), vec<3>(3 * L, 2 * L, 2 * L), L,
                                          [&](const vec<3>&) { return 0.5 * L; }, all);
       REQUIRE(g.size() == 8u * 12u);
+      CHECK(g.dropped_volume == 0.0);
       std::set<std::tuple<double, double, double>> got, want;
       for (const auto& x : g.x) got.emplace(x.x(), x.y(), x.z());
       for (int i = 0; i < 6; ++i)

@@ -35,12 +35,14 @@
 
 namespace mpskit::resolution {
 
-/// The particles of a graded lattice: positions, volumes (V = L^D/2^k) and split generations k.
+/// The particles of a graded lattice: positions, volumes (V = L^D/2^k) and split generations k, and the volume of
+/// the particles `keep` rejected (0 when every start cell is filled: a caller can refuse a gap at a wall).
 template <int D>
 struct graded_points {
   std::vector<vec<D>> x;
   std::vector<double> volume;
   std::vector<int> generation;
+  double dropped_volume = 0.0;
   std::size_t size() const { return x.size(); }
 };
 
@@ -74,7 +76,10 @@ graded_points<D> graded_lattice(const vec<D>& lo, const vec<D>& hi, double L, co
   graded_points<D> out;
   const auto emit = [&](const vec<D>& x, int k) {
     const double h = diameter(k);
-    if (!keep(x, h)) return;
+    if (!keep(x, h)) {
+      out.dropped_volume += std::ldexp(LD, -k);
+      return;
+    }
     out.x.push_back(x);
     out.volume.push_back(std::ldexp(LD, -k));  // exact halving
     out.generation.push_back(k);

@@ -23,7 +23,7 @@ enum class time_step_mode { adaptive, fixed };
 struct time_step_params {
   time_step_mode mode = time_step_mode::adaptive;  ///< adaptive or fixed
   double dt_max = 1e-3;      ///< largest Δt (s); the adaptive Δt is dt_max / ratio^k
-  double ratio = 2.0;        ///< r of the ladder Δt_max / r^k, in (1, 2]; 2 keeps Δt_max / 2^k exactly
+  double ratio = 2.0;        ///< r of the ladder Δt_max / r^k, in [1.001, 2] (above 1 so the rungs stay countable); 2 keeps Δt_max / 2^k exactly
   double dt_fixed = 0.0;     ///< Δt in fixed mode (s)
   double courant = 0.1;      ///< α_C (Tanaka 2018 Table 2: 0.1)
   double viscous = 0.1;      ///< α_ν in Δt ≤ α_ν L²/ν (our choice; the papers give none)
