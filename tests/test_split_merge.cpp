@@ -21,6 +21,7 @@
 
 #include "archetypes/resolution.hpp"
 #include "cases/polygon_tank.hpp"
+#include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "cases/taylor_green.hpp"
 #include "mpskit/core/state.hpp"
@@ -149,21 +150,6 @@ res::split_merge_params<D> split_at(const vec<D>& c, double r) {
 template <int D>
 mat<D> zero_grad(index_t) {
   return mat<D>::Zero();
-}
-
-/// Min over neighbour pairs within 1.5 L_ij of r_ij / L_ij, L_ij = (L_i + L_j)/2, diameters V^(1/D) (issue #9's
-/// clustering measure).
-template <class State, int D>
-double min_pair_ratio(const State& st, const search::domain<D>& dom) {
-  Eigen::VectorXd Ld(st.n_real());
-  for (index_t i = 0; i < st.n_real(); ++i) Ld[i] = std::pow(st.template get<field::volume>()[i], 1.0 / D);
-  points<D> x = st.x().leftCols(st.n_real());
-  search::neighbour_list<D> nl;
-  nl.build(exec::seq{}, x, search::per_particle_radius{&Ld, 1.5}, {0.0, dom});
-  double m = 1e300;
-  for (index_t i = 0; i < x.cols(); ++i)
-    for (const auto j : nl.neighbours(i)) m = std::min(m, nl.displacement(x, i, j).norm() / (0.5 * (Ld[i] + Ld[j])));
-  return m;
 }
 
 /// Sorted (x, u, V, p) of every real particle: an order-free picture of a state, compared bitwise.
@@ -1367,7 +1353,7 @@ TEST_SUITE("multires_hard") {
       return v;
     };
     const double V0 = volume();
-    const auto min_ratio = [&]() { return min_pair_ratio(sim.state(), p.domain); };
+    const auto min_ratio = [&]() { return cases::min_pair_ratio(sim.state(), p.domain); };
     hard_outcome o;
     long k = 0;
     while (sim.time() < T_end * T) {
@@ -1542,7 +1528,7 @@ TEST_SUITE("taylor_green_multires") {
           e += 0.5 * c.rho * st.template get<field::volume>()[i] * st.u().col(i).squaredNorm();
         return e;
       };
-      const auto min_ratio = [&]() { return min_pair_ratio(sim.state(), p.domain); };
+      const auto min_ratio = [&]() { return cases::min_pair_ratio(sim.state(), p.domain); };
       outcome o;
       const double e0 = ke();
       o.rmin = min_ratio();

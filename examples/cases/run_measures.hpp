@@ -1,6 +1,8 @@
 #pragma once
 // What the runners measure during a run: the fluid volume, the velocity flux through a slab, the extreme fluid
-// pressures and speeds with where and when (channels, gears), and a pressure probe's first impact (dam breaks).
+// pressures and speeds with where and when (channels, gears), a pressure probe's first impact (dam breaks), and the
+// closest pair of particles (clustering).
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -9,8 +11,10 @@
 #include <vector>
 
 #include "mpskit/core/error.hpp"
-
+#include "mpskit/core/exec.hpp"
 #include "mpskit/core/fields.hpp"
+#include "mpskit/search/domain.hpp"
+#include "mpskit/search/neighbour_list.hpp"
 
 namespace mpskit::cases {
 
@@ -30,6 +34,22 @@ void record_sizes(const Sim& sim, Result& r) {
   }
   r.splits = sim.counters().splits;
   r.merges = sim.counters().merges;
+}
+
+/// Min over pairs of real particles closer than 1.5 L_ij of r_ij / L_ij, L_ij = (L_i + L_j)/2, diameters V^(1/D)
+/// (issue #9's clustering measure; +1e300 when no pair is that close). Builds its own list (sequential).
+template <class State, int D>
+double min_pair_ratio(const State& st, const search::domain<D>& dom) {
+  const index_t n = st.n_real();
+  Eigen::VectorXd Ld(n);
+  for (index_t i = 0; i < n; ++i) Ld[i] = std::pow(st.template get<field::volume>()[i], 1.0 / D);
+  points<D> x = st.x().leftCols(n);
+  search::neighbour_list<D> nl;
+  nl.build(exec::seq{}, x, search::per_particle_radius{&Ld, 1.5}, {0.0, dom});
+  double m = 1e300;
+  for (index_t i = 0; i < n; ++i)
+    for (const auto j : nl.neighbours(i)) m = std::min(m, nl.displacement(x, i, j).norm() / (0.5 * (Ld[i] + Ld[j])));
+  return m;
 }
 
 /// Σ V over the real particles (m² in 2D).

@@ -1,8 +1,8 @@
 #pragma once
 // Runs Tanaka's dam break (cases/tanaka_dam_break.hpp, §5.6.1) with the LSMPS scheme: front samples every
 // 0.05 in T = t √(2g/h0), the pressure at the probe (195, 5) mm every step, the lowest fluid (and copy)
-// pressure, counters and wall time. Shared by the test label dam_break_lsmps and the speed-against-error
-// reporter (benchmarks/report_dam_break.cpp).
+// pressure, the closest fluid pair (every step), counters and wall time. Shared by the test label
+// dam_break_lsmps and the speed-against-error reporter (benchmarks/report_dam_break.cpp).
 #include <Eigen/Core>
 #include <algorithm>
 #include <chrono>
@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break.hpp"
 #include "mpskit/io/probes.hpp"
 #include "mpskit/scene.hpp"
@@ -29,6 +30,8 @@ struct tanaka_dam_break_result {
   double L_min = 0.0;           ///< smallest particle diameter at the end (m; sqrt of the 2D volume)
   long splits = 0, merges = 0;  ///< resolution events (Scene::resolution = split_merge)
   double volume_change = 0.0;   ///< ΣV at the end / ΣV at the start − 1 (splits and merges conserve it)
+  /// Smallest r_ij / L_ij of fluid pairs after any step (min_pair_ratio: clustering) and T when it occurred.
+  double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
@@ -89,6 +92,11 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       const auto& P = sim.state().template get<field::pressure>();
       for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
       for (index_t i = n; i < sim.state().size(); ++i) r.p_min_copies = std::min(r.p_min_copies, P[i]);
+      const double q = min_pair_ratio(sim.state(), p.domain);
+      if (q < r.min_pair_ratio) {
+        r.min_pair_ratio = q;
+        r.T_min_pair = db.t_star(sim.time());
+      }
       r.probe_t.push_back(sim.time());
       r.probe_p.push_back(probe_pressure(sim, db.probe(), c.L));
       const double T = db.t_star(sim.time());
