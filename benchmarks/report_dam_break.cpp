@@ -17,7 +17,8 @@
 // the same (T, Z). A run that fails before T_end is reported with NaN front errors (not plotted), the metric
 // "completed" = 0 (1 when it reached T_end), T_reached/100 and its samples in dam_break_fronts.csv. The LSMPS
 // runs also report the probe at (195, 5) mm (issue #7): T when it gets wet, and over the 10 ms after that the
-// pressure impulse, the 2 ms moving-average peak and the peak of every 100th step (Tanaka's sampling), each /100.
+// pressure impulse, the 2 ms moving-average peak and the peak of every 100th step (Tanaka's sampling), each /100,
+// and the closest fluid pair over the run (min_pair_r/L/100, cases::min_pair_ratio: clustering).
 //
 // Error metric (docs/validation.md): at every front sample T_k ≤ T_end (ΔT = 0.05), Z_ref(T_k) is the
 // mean of the data series defined at T_k (Martin & Moyce 1952 two scales, Koshizuka & Oka 1996;
@@ -202,6 +203,7 @@ bench::configuration make_lsmps(int order, int N, double T_end, const std::vecto
     o.errors.push_back({"probe_impulse_10ms_Pa_s/100", (m.complete ? m.impulse : nan) / 100.0});
     o.errors.push_back({"probe_peak_2ms_Pa/100", (m.complete ? m.peak_filtered : nan) / 100.0});
     o.errors.push_back({"probe_peak_every100_Pa/100", (m.complete ? m.peak_sparse : nan) / 100.0});
+    o.errors.push_back({"min_pair_r/L/100", r.min_pair_ratio / 100.0});
     return o;
   };
   return c;
