@@ -361,6 +361,55 @@ TEST_SUITE("det_f") {
     CHECK(solved);
   }
 
+  TEST_CASE("PPE active set (active_set_solves): p >= 0 where the plain solve pulls, unchanged where it pushes") {
+    // A 12 × 12 lattice blob in free space (surface test on, no walls, g = 0) with u = a (x − x_c): expanding
+    // (a > 0) the det F source is positive and the plain solve gives negative pressures inside; with the
+    // active set those particles are held at p = 0 and the PPE solved again until none is negative.
+    // Contracting (a < 0) every solved pressure is positive, so the active set must change nothing (bitwise).
+    struct blob : lsmps_defaults<2> {
+      using walls = scheme::no_walls;
+    };
+    const int N = 12;
+    const double L = 0.01, xc = 0.5 * N * L;
+    struct outcome {
+      Eigen::VectorXd p;
+      scheme::lsmps_counters c;
+    };
+    const auto run = [&](double a, int solves) {
+      scheme::lsmps_state<2> s0(N * N);
+      for (int i = 0; i < N; ++i)
+        for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << (i + 0.5) * L, (j + 0.5) * L;
+      s0.u() = a * (s0.x().colwise() - vec<2>(xc, xc));
+      s0.template get<field::volume>().setConstant(L * L);
+      scheme::lsmps_params<2> p;
+      p.g.setZero();
+      p.active_set_solves = solves;
+      simulation<blob> sim(p, std::move(s0));
+      sim.step();
+      return outcome{Eigen::VectorXd(sim.state().get<field::pressure>().head(N * N)), sim.counters()};
+    };
+    const outcome pull = run(1.0, 0), held = run(1.0, 10);
+    CHECK(pull.p.minCoeff() < 0.0);  // the case does exercise the set (plain solve: negative inside)
+    CHECK(pull.c.active_set_rows == 0);
+    CHECK(held.p.minCoeff() >= 0.0);  // exactly: a pressure < 0 left would be counted as unfinished
+    CHECK(held.c.active_set_rows > 0);
+    CHECK(held.c.active_set_solves >= 1);
+    CHECK(held.c.active_set_unfinished == 0);
+    MESSAGE("expanding blob: plain min p = " << pull.p.minCoeff() << " Pa, active set " << held.c.active_set_rows
+                                             << " rows in " << held.c.active_set_solves << " repeated solves");
+    const outcome push = run(-1.0, 0), same = run(-1.0, 10);
+    CHECK(push.p.minCoeff() >= 0.0);
+    CHECK(same.c.active_set_rows == 0);
+    CHECK((push.p.array() == same.p.array()).all());
+    // Refused: a negative count, and clamping together with the set (it would hide what the set looks for).
+    scheme::lsmps_params<2> bad;
+    bad.active_set_solves = -1;
+    CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("active_set_solves"), mpskit::error);
+    bad.active_set_solves = 2;
+    bad.negative = scheme::negative_pressure::clamp_to_zero;
+    CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("negative = keep"), mpskit::error);
+  }
+
   TEST_CASE("c' of eq. 62: 1 inside [c_min, c_max], linear outside, limited to [c'_min, c'_max]") {
     const ppe::det_f s;  // c_min 0.95, c_max 1.2, c'_min 0.999, c'_max 1.001 (Tanaka Table 2)
     CHECK(s.volume_ratio(0.95) == 1.0);
@@ -439,6 +488,7 @@ namespace {
 /// activations.
 struct tanaka_run {
   int samples = 0, inside = 0;
+  int inside_widened = 0;  // inside the band widened by `widen` in Z on both sides
   double pmin = 0.0;     // fluid particles, all steps
   double rho_g_h = 0.0;  // ρ g H of the column
   long guarded = 0;
@@ -446,41 +496,48 @@ struct tanaka_run {
   cases::impact_measures impact;  // the probe at (195, 5) mm: 10 ms window, 2 ms filter, every 100 steps
   double T_front_at_probe = std::nan("");  // first front sample with the front past x = 191 mm (Z ≥ 3.91)
   double T_of_t = 0.0;                     // T = t √(2g/h0) per second
+  long active_set_rows = 0, active_set_unfinished = 0;
 };
 tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize::penalty_projection projection,
-                                scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient) {
+                                scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient,
+                                int active_set_solves = 0, double widen = 0.0) {
   cases::tanaka_dam_break_config c;
   c.L = 0.004;
   scheme::lsmps_params<2> p;
   p.copy_row = copy_row;
+  p.active_set_solves = active_set_solves;
   p.copy_two_point = copy_two_point;
   p.shift.projection = projection;
   const auto r = cases::run_tanaka_dam_break(c, T_end, p);
   std::vector<cases::front_series> data;
   for (const char* f : {"koshizuka_oka_1996.csv", "martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv"})
     data.push_back(cases::read_front_series(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front/" + f));
-  int samples = 0, inside = 0;
+  int samples = 0, inside = 0, inside_widened = 0;
   for (std::size_t k = 0; k < r.T.size(); ++k) {
     const auto band = cases::front_band(data, r.T[k]);
     if (std::isnan(band.first)) continue;
     ++samples;
     const bool ok = r.Z[k] >= band.first && r.Z[k] <= band.second;
     inside += ok;
+    inside_widened += r.Z[k] >= band.first - widen && r.Z[k] <= band.second + widen;
     if (!ok) std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", r.T[k], r.Z[k], band.first, band.second);
   }
-  std::printf("dam_break_lsmps L = 4 mm to T = %.2f (neumann_points %d, copy_two_point %g, wall_only %d): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = %.0f; copies %.0f), "
-              "%ld steps, filtered %ld particle-steps, guarded %ld, min r_ij/L_ij %.3f (T = %.2f)\n",
-              T_end, int(copy_row == scheme::copy_row_kind::neumann_points), copy_two_point, int(projection == regularize::penalty_projection::wall_only), inside, samples, r.p_min,
-              -r.rho_g_h, r.p_min_copies, r.steps, r.filtered, r.guarded, r.min_pair_ratio, r.T_min_pair);
+  std::printf("dam_break_lsmps L = 4 mm to T = %.2f (neumann_points %d, copy_two_point %g, wall_only %d, active set %d): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = %.0f; copies %.0f), "
+              "%ld steps, filtered %ld particle-steps, guarded %ld, min r_ij/L_ij %.3f (T = %.2f), active-set rows %ld (unfinished steps %ld)\n",
+              T_end, int(copy_row == scheme::copy_row_kind::neumann_points), copy_two_point, int(projection == regularize::penalty_projection::wall_only), active_set_solves, inside, samples, r.p_min,
+              -r.rho_g_h, r.p_min_copies, r.steps, r.filtered, r.guarded, r.min_pair_ratio, r.T_min_pair, r.active_set_rows, r.active_set_unfinished);
   tanaka_run out;
   out.samples = samples;
   out.inside = inside;
+  out.inside_widened = inside_widened;
   out.pmin = r.p_min;
   out.rho_g_h = r.rho_g_h;
   out.guarded = r.guarded;
   out.min_pair = r.min_pair_ratio;
   out.impact = cases::measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
   out.T_of_t = std::sqrt(2.0 * c.g / c.column_width);
+  out.active_set_rows = r.active_set_rows;
+  out.active_set_unfinished = r.active_set_unfinished;
   // The probe is wet once a particle centre lies within 1.5 L of it: x ≥ 195 − 6 mm, front x + L/2 ≥ 191 mm.
   for (std::size_t k = 0; k < r.T.size() && std::isnan(out.T_front_at_probe); ++k)
     if (r.Z[k] >= (0.191 - c.vessel_left) / c.column_width) out.T_front_at_probe = r.T[k];
@@ -558,6 +615,27 @@ TEST_SUITE("dam_break_lsmps") {
     // Clustering (cases::min_pair_ratio after every step): issue #9's bound for its hard cases, r_ij/L_ij ≥ 0.3.
     // Measured 0.454 (at T = 2.50); the Neumann-point run below falls to 0.104 by T = 1.9 (printed).
     CHECK(r.min_pair >= 0.3);
+  }
+  TEST_CASE("Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting + active set: band, p >= 0 for T <= 2.8") {
+    // active_set_solves = 10 (opt-in, docs/lsmps_scheme.md deviation 13): fluid pressures solved below 0 are held
+    // at 0 and the PPE solved again. Measured: p ≥ 0 by construction (no step left unfinished; 5.6e4
+    // particle-steps in the set, ≈ 1 repeated solve per step), the closest pair 0.689 L (without the set: 0.454 L
+    // and −4.1e4 Pa), so issue #7's p ≥ −ρgH holds to T = 2.8 (the copies, auxiliary unknowns, reach −10 ρgH).
+    // The front, however, is in the band at 54/57 samples only: ahead of it at T = 1.75–1.85 by 0.003–0.014
+    // in Z (0.3–1.4 mm, less than the L/2 = 2 mm by which the front is resolved), so this run does not meet the
+    // band strictly; asserted: at most those 3 misses, each within L/2. The run fails in the far-wall impact at
+    // T ≈ 2.96 (a sparse corner particle, c = 0.42, unflagged, runs to +5e4 ρgH): the impact window
+    // (T 2.91–3.05) is not reached at this spacing (at 5 mm it is, to T = 3.2; docs).
+    const auto r = run_tanaka_dam_break(2.8, 1.0, regularize::penalty_projection::wall_only,
+                                        scheme::copy_row_kind::parent_gradient, 10, 0.5 * 0.004 / 0.1);
+    CHECK(r.samples >= 53);
+    CHECK(r.inside_widened == r.samples);  // the band widened by L/2 = 0.02 in Z
+    CHECK(r.samples - r.inside <= 3);
+    CHECK(r.active_set_unfinished == 0);
+    CHECK(r.pmin >= 0.0);  // by the set (a kept negative would be counted above); issue #7 asks ≥ −ρgH
+    CHECK(r.active_set_rows > 0);
+    CHECK(r.guarded == 0);
+    CHECK(r.min_pair >= 0.5);  // issue #9's hard-case bound is 0.3; measured 0.689
   }
   TEST_CASE("Tanaka's dam break, L = 4 mm, copies as Neumann points: band and p >= -rho g H for T <= 1.9") {
     // copy_row = neumann_points (opt-in, docs/lsmps_scheme.md deviation 11): no copy unknowns, so the floor

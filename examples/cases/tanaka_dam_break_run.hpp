@@ -33,6 +33,7 @@ struct tanaka_dam_break_result {
   /// Smallest r_ij / L_ij of fluid pairs after any step (min_pair_ratio: clustering) and T when it occurred.
   double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
+  long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -125,6 +126,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.guarded = sim.counters().guarded;
   r.filtered = sim.counters().filtered;
   r.ppe_iterations = sim.counters().ppe_iterations;
+  r.active_set_rows = sim.counters().active_set_rows;
+  r.active_set_unfinished = sim.counters().active_set_unfinished;
   return r;
 }
 

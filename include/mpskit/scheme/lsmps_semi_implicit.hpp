@@ -30,7 +30,8 @@
 ///     odd-even mode along the wall grow by ≈ 6 % per step, measured); the paper's forms are options. With
 ///     copy_row = neumann_points the copies are no unknowns (docs/lsmps_scheme.md, deviation 11).
 ///     Parts with no Dirichlet row (periodic boxes) are pinned at their lowest-id particle after making the
-///     right-hand side compatible with the left null vector, and counted.
+///     right-hand side compatible with the left null vector, and counted. With active_set_solves > 0 fluid
+///     particles solved at p < 0 become p = 0 rows and the PPE is solved again (ours, opt-in: deviation 13).
 ///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16).
 /// 10. Shifting (eqs. 93–100) with δu = ∇u δx (eq. 91), if the scene names it.
 /// 11. Wall-crossing guard (a documented deviation), periodic wrap, NaN/inf check.
@@ -190,6 +191,12 @@ struct lsmps_params {
   wrong_sign_row wrong_sign_rows = wrong_sign_row::dirichlet;  ///< fluid rows with a diagonal ≥ 0 (see the enum)
   pressure_operator pressure = pressure_operator::second_derivatives;  ///< the det F rows' operator (see the enum)
   negative_pressure negative = negative_pressure::keep;  ///< LSMPS needs no clamping (Tanaka §4.7)
+  /// p ≥ 0 by an active set (ours, opt-in; docs/lsmps_scheme.md deviation 13). 0: off (Tanaka's scheme). k > 0:
+  /// after the PPE solve, the fluid particles with p < 0 become Dirichlet p = 0 rows for the rest of the step
+  /// (as free-surface particles are: the fluid may separate there but not pull) and the PPE is solved again,
+  /// at most k more times; a particle once in the set stays in it for the step. Negative pressures left after
+  /// the k-th repeat are kept, not clamped, and counted (counters().active_set_unfinished). Accepted: [0, 100].
+  int active_set_solves = 0;
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
   search::domain<D> domain{};           ///< periodic axes
@@ -205,6 +212,10 @@ struct lsmps_params {
     for (int a = 0; a < D; ++a) v.finite("g", g[a]);
     v.in_range("skin", skin, 0.0, 1.0).in_range("reorder_every", reorder_every, 0, 1e9);
     v.non_negative("copy_two_point", copy_two_point);
+    v.in_range("active_set_solves", active_set_solves, 0, 100);
+    v.require(!(active_set_solves > 0 && negative == negative_pressure::clamp_to_zero), "active_set_solves",
+              "needs negative = keep (clamping each solve to zero would hide the negative pressures the active set "
+              "looks for)");
     v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::constrained_poisson),
               "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not constrained_poisson "
               "(the det F row at a copy has no nested form)");
@@ -243,6 +254,9 @@ struct lsmps_counters {
   long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
   long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
+  long active_set_rows = 0;        ///< fluid particles made p = 0 rows by the active set (particle-steps)
+  long active_set_solves = 0;      ///< PPE solves repeated by the active set (summed over steps)
+  long active_set_unfinished = 0;  ///< steps whose last allowed solve still left a fluid pressure < 0 (kept)
   long list_builds = 0;            ///< neighbour-list builds
   long reorders = 0;               ///< cell reorders
   long filtered = 0;               ///< particle-steps filtered in the one-sided band (boundary_filter)
@@ -818,7 +832,35 @@ class lsmps_semi_implicit {
     }
   }
 
+  /// 8. The PPE, with the active set of lsmps_params::active_set_solves (p ≥ 0; ours, docs/lsmps_scheme.md
+  /// deviation 13): particles whose solved pressure is negative join the set (Dirichlet p = 0) and the system
+  /// is built and solved again. A primal active-set iteration for the complementarity problem p ≥ 0 of
+  /// Miyamoto & Koshizuka (arXiv:2302.14245, an MPS-family method with the incompressibility constraint as an
+  /// LCP) without its release step: the set only grows within a step (with releases, particles compressed at
+  /// p = 0 leaving the set, the dam break failed earlier: measured, docs/lsmps_scheme.md).
   void solve_pressure(double dt) {
+    const index_t n = s_.n_real();
+    auto& pres = s_.template get<field::pressure>();
+    active_set_.assign(static_cast<std::size_t>(s_.size()), 0);
+    for (int repeat = 0;; ++repeat) {
+      solve_pressure_once(dt);
+      long joined = 0;
+      for (index_t i = 0; i < n; ++i)
+        if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) ++joined;
+      if (joined == 0 || p_.active_set_solves == 0) return;
+      if (repeat == p_.active_set_solves) {
+        ++c_.active_set_unfinished;
+        return;
+      }
+      for (index_t i = 0; i < n; ++i)
+        if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) active_set_[static_cast<std::size_t>(i)] = 1;
+      c_.active_set_rows += joined;
+      ++c_.active_set_solves;
+    }
+  }
+
+  /// One build and solve of the PPE (stage 8); the unknowns exclude the active set.
+  void solve_pressure_once(double dt) {
     const index_t n = s_.n_real(), nt = s_.size();
     const points<D>& x = s_.x();
     auto& pres = s_.template get<field::pressure>();
@@ -837,7 +879,8 @@ class lsmps_semi_implicit {
         const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
         if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
-        if (participates(i) && (!surface_[static_cast<std::size_t>(i)] || copy_unknown)) {
+        const bool known = surface_[static_cast<std::size_t>(i)] || active_set_[static_cast<std::size_t>(i)];
+        if (participates(i) && (!known || copy_unknown)) {
           unk_[static_cast<std::size_t>(i)] = static_cast<index_t>(rows_.size());
           rows_.push_back(i);
         }
@@ -1204,6 +1247,7 @@ class lsmps_semi_implicit {
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_;
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
+  std::vector<std::uint8_t> active_set_;  // fluid particles held at p = 0 by the active set this step (stage 8)
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
   std::vector<op::row_entries> row_buf_;  ///< PPE rows of the step (reused: capacity kept)
