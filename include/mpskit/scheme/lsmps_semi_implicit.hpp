@@ -844,16 +844,19 @@ class lsmps_semi_implicit {
     active_set_.assign(static_cast<std::size_t>(s_.size()), 0);
     for (int repeat = 0;; ++repeat) {
       solve_pressure_once(dt);
+      if (p_.active_set_solves == 0) return;
+      const bool last = repeat == p_.active_set_solves;  // negatives found now are kept and counted
       long joined = 0;
       for (index_t i = 0; i < n; ++i)
-        if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) ++joined;
-      if (joined == 0 || p_.active_set_solves == 0) return;
-      if (repeat == p_.active_set_solves) {
+        if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) {
+          ++joined;
+          if (!last) active_set_[static_cast<std::size_t>(i)] = 1;
+        }
+      if (joined == 0) return;
+      if (last) {
         ++c_.active_set_unfinished;
         return;
       }
-      for (index_t i = 0; i < n; ++i)
-        if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) active_set_[static_cast<std::size_t>(i)] = 1;
       c_.active_set_rows += joined;
       ++c_.active_set_solves;
     }
