@@ -9,8 +9,9 @@
 // tests/data/dam_break_front of the source tree), --lsmps-levels N1,... (Tanaka's dam break with the LSMPS
 // scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A order,
 // default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points]
-// [,two_point_wall_only] (the LSMPS wall rows: lsmps_params::copy_row, or copy_two_point = 1 with wall-only
-// shifting; default parent_gradient, the library's default).
+// [,two_point_wall_only][,two_point_wall_only_active_set] (the LSMPS wall rows: lsmps_params::copy_row, or
+// copy_two_point = 1 with wall-only shifting, optionally with active_set_solves = 10; default parent_gradient,
+// the library's default).
 //
 // The LSMPS case (cases/tanaka_dam_break_run.hpp, issue #7) has the same shape as Koshizuka & Oka's (vessel
 // 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data in
@@ -143,7 +144,8 @@ struct lsmps_order3 : lsmps_defaults<2> {
 };
 
 /// The LSMPS wall variants the reporter runs: parent_gradient (the defaults), neumann_points (copy_row =
-/// neumann_points) and two_point_wall_only (copy_two_point = 1 and shift.projection = wall_only).
+/// neumann_points), two_point_wall_only (copy_two_point = 1 and shift.projection = wall_only) and
+/// two_point_wall_only_active_set (the same with active_set_solves = 10, deviation 13).
 struct lsmps_wall_variant {
   std::string name;   ///< as given to --lsmps-walls
   std::string tag;    ///< suffix of the configuration name
@@ -158,6 +160,12 @@ inline const std::vector<lsmps_wall_variant>& lsmps_wall_variants() {
       {"two_point_wall_only", "-tp", ", two-point copy rows + wall-only shifting", [](scheme::lsmps_params<2>& p) {
          p.copy_two_point = 1.0;
          p.shift.projection = regularize::penalty_projection::wall_only;
+       }},
+      {"two_point_wall_only_active_set", "-tpa", ", two-point rows + wall-only shifting + active set",
+       [](scheme::lsmps_params<2>& p) {
+         p.copy_two_point = 1.0;
+         p.shift.projection = regularize::penalty_projection::wall_only;
+         p.active_set_solves = 10;
        }}};
   return v;
 }
