@@ -143,49 +143,13 @@ struct lsmps_order3 : lsmps_defaults<2> {
   using op = mpskit::op::lsmps_a<2, 3, kernel>;
 };
 
-/// The LSMPS wall variants the reporter runs: parent_gradient (the defaults), neumann_points (copy_row =
-/// neumann_points), two_point_wall_only (copy_two_point = 1 and shift.projection = wall_only) and
-/// two_point_wall_only_active_set (the same with active_set_solves = 10, deviation 13).
-struct lsmps_wall_variant {
-  std::string name;   ///< as given to --lsmps-walls
-  std::string tag;    ///< suffix of the configuration name
-  std::string label;  ///< suffix of the plot series
-  void (*apply)(scheme::lsmps_params<2>&);
-};
-inline const std::vector<lsmps_wall_variant>& lsmps_wall_variants() {
-  static const std::vector<lsmps_wall_variant> v{
-      {"parent_gradient", "", "", [](scheme::lsmps_params<2>&) {}},
-      {"neumann_points", "-np", ", Neumann-point walls",
-       [](scheme::lsmps_params<2>& p) { p.copy_row = scheme::copy_row_kind::neumann_points; }},
-      {"two_point_wall_only", "-tp", ", two-point copy rows + wall-only shifting", [](scheme::lsmps_params<2>& p) {
-         p.copy_two_point = 1.0;
-         p.shift.projection = regularize::penalty_projection::wall_only;
-       }},
-      {"two_point_wall_only_active_set", "-tpa", ", two-point rows + wall-only shifting + active set",
-       [](scheme::lsmps_params<2>& p) {
-         p.copy_two_point = 1.0;
-         p.shift.projection = regularize::penalty_projection::wall_only;
-         p.active_set_solves = 10;
-       }}};
-  return v;
-}
-/// The variant named `name`; an unknown name is refused with the accepted list.
-inline const lsmps_wall_variant& lsmps_wall_variant_named(const std::string& name) {
-  std::string accepted;
-  for (const lsmps_wall_variant& w : lsmps_wall_variants()) {
-    if (w.name == name) return w;
-    accepted += (accepted.empty() ? "" : ", ") + w.name;
-  }
-  fail("report_dam_break: --lsmps-walls entry '", name, "' (accepted: ", accepted, ")");
-}
-
 /// Tanaka's dam break with the LSMPS scheme at L = h0/N with the wall variant `walls`.
 /// Besides the front: the probe at (195, 5) mm sampled every step (cases::measure_impact; window 10 ms after
 /// the probe gets wet, 2 ms moving average, every 100 steps as Tanaka sampled), NaN when the run did not
 /// reach the end of the window.
 template <class Scene>
 bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data,
-                                const lsmps_wall_variant& walls) {
+                                const cases::tanaka_wall_variant& walls) {
   cases::tanaka_dam_break_config cfg;
   cfg.L = cfg.column_width / N;
   bench::configuration c;
@@ -235,7 +199,7 @@ int main(int argc, char** argv) try {
   solvers.push_back("cholmod");
 #endif
   std::vector<int> lsmps_levels{20, 25}, lsmps_orders{2};
-  std::vector<const lsmps_wall_variant*> lsmps_walls{&lsmps_wall_variant_named("parent_gradient")};
+  std::vector<const cases::tanaka_wall_variant*> lsmps_walls{&cases::tanaka_wall_variant_named("parent_gradient", "report_dam_break --lsmps-walls")};
   int reps = 3;
   double T_end = 3.0, lsmps_T_end = -1.0;
   std::string out = "benchmarks/results", data_dir = MPSKIT_DAM_BREAK_DATA_DIR;
@@ -274,7 +238,7 @@ int main(int argc, char** argv) try {
       }
     } else if (a == "--lsmps-walls") {
       lsmps_walls.clear();
-      for (const std::string& w : split(next())) lsmps_walls.push_back(&lsmps_wall_variant_named(w));
+      for (const std::string& w : split(next())) lsmps_walls.push_back(&cases::tanaka_wall_variant_named(w, "report_dam_break --lsmps-walls"));
     } else if (a == "--lsmps-T-end") {
       lsmps_T_end = std::stod(next());
       if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
@@ -309,7 +273,7 @@ int main(int argc, char** argv) try {
       }
     }
   if (lsmps_T_end < 0.0) lsmps_T_end = T_end;
-  for (const lsmps_wall_variant* w : lsmps_walls)
+  for (const cases::tanaka_wall_variant* w : lsmps_walls)
     for (int q : lsmps_orders)
       for (int N : lsmps_levels) {
         if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, *w));

@@ -64,12 +64,58 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
   return v;
 }
 
+/// The wall options the dam-break runs compare (docs/lsmps_scheme.md): parent_gradient (the library's
+/// defaults), neumann_points (copy_row = neumann_points, deviation 11), two_point_wall_only (copy_two_point = 1
+/// and shift.projection = wall_only) and two_point_wall_only_active_set (the same with active_set_solves = 10,
+/// deviation 13). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
+struct tanaka_wall_variant {
+  std::string name;   ///< as given on a command line
+  std::string tag;    ///< suffix of a configuration name
+  std::string label;  ///< suffix of a plot series
+  void (*apply)(scheme::lsmps_params<2>&);
+};
+inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
+  static const std::vector<tanaka_wall_variant> v{
+      {"parent_gradient", "", "", [](scheme::lsmps_params<2>&) {}},
+      {"neumann_points", "-np", ", Neumann-point walls",
+       [](scheme::lsmps_params<2>& p) { p.copy_row = scheme::copy_row_kind::neumann_points; }},
+      {"two_point_wall_only", "-tp", ", two-point copy rows + wall-only shifting",
+       [](scheme::lsmps_params<2>& p) {
+         p.copy_two_point = 1.0;
+         p.shift.projection = regularize::penalty_projection::wall_only;
+       }},
+      {"two_point_wall_only_active_set", "-tpa", ", two-point rows + wall-only shifting + active set",
+       [](scheme::lsmps_params<2>& p) {
+         p.copy_two_point = 1.0;
+         p.shift.projection = regularize::penalty_projection::wall_only;
+         p.active_set_solves = 10;
+       }}};
+  return v;
+}
+/// The variant named `name`; an unknown name is refused with the accepted list (`who` names the caller).
+inline const tanaka_wall_variant& tanaka_wall_variant_named(const std::string& name, const char* who) {
+  std::string accepted;
+  for (const tanaka_wall_variant& w : tanaka_wall_variants()) {
+    if (w.name == name) return w;
+    accepted += (accepted.empty() ? "" : ", ") + w.name;
+  }
+  fail(who, ": wall variant '", name, "' (accepted: ", accepted, ")");
+}
+
+/// Does nothing (the default observer of run_tanaka_dam_break).
+struct no_tanaka_observer {
+  template <class Sim>
+  void operator()(const Sim&) const {}
+};
+
 /// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g and Δt_max =
 /// 0.1 L / √(2 g H) are set from the case. With catch_failure an mpskit::error ends the run and is recorded
-/// (the reporter's failed configurations); otherwise it propagates.
-template <class Scene = lsmps_defaults<2>>
+/// (the reporter's failed configurations); otherwise it propagates. `observe(sim)` is called after every step
+/// (output, progress).
+template <class Scene = lsmps_defaults<2>, class Observer = no_tanaka_observer>
 tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, double T_end,
-                                             scheme::lsmps_params<2> p = {}, bool catch_failure = false) {
+                                             scheme::lsmps_params<2> p = {}, bool catch_failure = false,
+                                             Observer&& observe = {}) {
   const auto db = make_tanaka_dam_break(c);
   scheme::lsmps_state<2> s0(db.size());
   s0.x() = db.x;
@@ -89,6 +135,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   try {
     while (db.t_star(sim.time()) < T_end) {
       sim.step();
+      observe(sim);
       const index_t n = sim.state().n_real();
       const auto& P = sim.state().template get<field::pressure>();
       for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
