@@ -251,9 +251,7 @@ int main(int argc, char** argv) try {
            "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --lsmps-walls, --out, --data)");
     }
   }
-  const std::vector<cases::front_series> data{cases::read_front_series(data_dir + "/martin_moyce_1952_a1.125in.csv"),
-                                              cases::read_front_series(data_dir + "/martin_moyce_1952_a2.25in.csv"),
-                                              cases::read_front_series(data_dir + "/koshizuka_oka_1996.csv")};
+  const std::vector<cases::front_series> data = cases::read_front_data(data_dir);
   const char* threads = std::getenv("OMP_NUM_THREADS");
   std::cout << "dam break speed/error report; " << MPSKIT_BENCH_FLAGS << "; OMP_NUM_THREADS="
             << (threads ? threads : "(unset)") << "; repetitions " << reps << "\n";

@@ -33,9 +33,7 @@ int main(int argc, char** argv) {
     else { std::fprintf(stderr, "usage: %s [--full] [--out DIR] [--data DIR]\n", argv[0]); return 2; }
   }
   try {
-    std::vector<cases::front_series> ref;
-    for (const char* f : {"martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv", "koshizuka_oka_1996.csv"})
-      ref.push_back(cases::read_front_series(data + "/" + f));
+    const std::vector<cases::front_series> ref = cases::read_front_data(data);
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "dam_break");
     io::progress_sink progress(std::cerr, 1.0);

@@ -68,9 +68,7 @@ int main(int argc, char** argv) {
     cfg.validate();
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg);
     const vec<2> probe = obstacle ? db.obstacle_probe() : db.probe();
-    std::vector<cases::front_series> ref;
-    for (const char* f : {"martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv", "koshizuka_oka_1996.csv"})
-      ref.push_back(cases::read_front_series(data + "/" + f));
+    const std::vector<cases::front_series> ref = cases::read_front_data(data);
 
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "tanaka_dam_break");

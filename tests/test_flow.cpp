@@ -15,10 +15,7 @@ using namespace mpskit;
 
 namespace {
 std::vector<cases::front_series> front_data() {
-  const std::string dir = std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front/";
-  return {cases::read_front_series(dir + "martin_moyce_1952_a1.125in.csv"),
-          cases::read_front_series(dir + "martin_moyce_1952_a2.25in.csv"),
-          cases::read_front_series(dir + "koshizuka_oka_1996.csv")};
+  return cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
 }
 }  // namespace
 

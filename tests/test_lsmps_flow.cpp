@@ -542,9 +542,7 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
   p.copy_two_point = copy_two_point;
   p.shift.projection = projection;
   const auto r = cases::run_tanaka_dam_break(c, T_end, p);
-  std::vector<cases::front_series> data;
-  for (const char* f : {"koshizuka_oka_1996.csv", "martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv"})
-    data.push_back(cases::read_front_series(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front/" + f));
+  const std::vector<cases::front_series> data = cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
   int samples = 0, inside = 0, inside_widened = 0;
   for (std::size_t k = 0; k < r.T.size(); ++k) {
     const auto band = cases::front_band(data, r.T[k]);

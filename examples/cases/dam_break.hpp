@@ -145,6 +145,15 @@ dam_break_result run_dam_break(dam_break_config cfg, Observer&& observer = {}) {
   return r;
 }
 
+/// The three surge-front series of tests/data/dam_break_front in `dir`: Martin & Moyce (1952) for a = 1.125 in
+/// and 2.25 in, Koshizuka & Oka (1996). Throws (through read_front_series) naming a missing or bad file.
+inline std::vector<front_series> read_front_data(const std::string& dir) {
+  std::vector<front_series> v;
+  for (const char* f : {"martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv", "koshizuka_oka_1996.csv"})
+    v.push_back(read_front_series(dir + "/" + f));
+  return v;
+}
+
 /// The band of the reference data at T: [0.9 min, 1.1 max] over the series defined at T (NaN, NaN
 /// when none is).
 inline std::pair<double, double> front_band(const std::vector<front_series>& data, double T, double rel = 0.10) {
