@@ -74,20 +74,20 @@ struct tanaka_wall_variant {
   std::string label;  ///< suffix of a plot series
   void (*apply)(scheme::lsmps_params<2>&);
 };
+/// copy_two_point = 1 and wall-only shifting (the two variants that build on it).
+inline void two_point_wall_only(scheme::lsmps_params<2>& p) {
+  p.copy_two_point = 1.0;
+  p.shift.projection = regularize::penalty_projection::wall_only;
+}
 inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
   static const std::vector<tanaka_wall_variant> v{
       {"parent_gradient", "", "", [](scheme::lsmps_params<2>&) {}},
       {"neumann_points", "-np", ", Neumann-point walls",
        [](scheme::lsmps_params<2>& p) { p.copy_row = scheme::copy_row_kind::neumann_points; }},
-      {"two_point_wall_only", "-tp", ", two-point copy rows + wall-only shifting",
-       [](scheme::lsmps_params<2>& p) {
-         p.copy_two_point = 1.0;
-         p.shift.projection = regularize::penalty_projection::wall_only;
-       }},
+      {"two_point_wall_only", "-tp", ", two-point copy rows + wall-only shifting", &two_point_wall_only},
       {"two_point_wall_only_active_set", "-tpa", ", two-point rows + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {
-         p.copy_two_point = 1.0;
-         p.shift.projection = regularize::penalty_projection::wall_only;
+         two_point_wall_only(p);
          p.active_set_solves = 10;
        }}};
   return v;
