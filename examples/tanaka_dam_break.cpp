@@ -8,7 +8,7 @@
 // and prints a summary: the front against the band, the lowest fluid pressure against −ρgH, the closest pair,
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
-// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--obstacle] [--full] [--out DIR] [--data DIR]
+// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
 //   --L      particle diameter in mm (default 5: the spacing at which the default wall options get through
 //            the far-wall impact; docs/lsmps_scheme.md, deviation 13)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
@@ -17,6 +17,9 @@
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md).
+//   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
+//            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
+//            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
 // Exit status 0 when the run reached T_end, 1 when the scheme failed (the summary says where).
 #include <algorithm>
 #include <chrono>
@@ -40,11 +43,12 @@ namespace fs = std::filesystem;
 using namespace mpskit;
 
 int main(int argc, char** argv) {
-  double L_mm = 5.0, T_end = 3.2;
+  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0;
+  bool trace = false;
   bool obstacle = false;
   std::string walls_name = "two_point_wall_only_active_set", data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--obstacle] [--full] [--out DIR] [--data DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -55,6 +59,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--L") && has_value) L_mm = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--T") && has_value) T_end = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
+    else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
     else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
     else return usage();
@@ -62,6 +67,8 @@ int main(int argc, char** argv) {
   try {
     if (!(L_mm > 0.0 && std::isfinite(L_mm))) fail("tanaka_dam_break: --L ", L_mm, " mm: must be > 0");
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail("tanaka_dam_break: --T ", T_end, ": must be > 0");
+    if (trace && !(trace_speed >= 0.0 && std::isfinite(trace_speed)))
+      fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
     cases::tanaka_dam_break_config cfg = obstacle ? cases::tanaka_obstacle_config(1e-3 * L_mm) : cases::tanaka_dam_break_config{};
     cfg.L = 1e-3 * L_mm;
@@ -79,6 +86,10 @@ int main(int argc, char** argv) {
     double next_vtk = 0.0, T_snap = 0.0;
     long last_it = 0;
     std::ofstream snap;
+    std::ofstream trace_out;
+    if (trace) trace_out.open(fs::path(out) / "trace.txt");
+    int traced = 0;
+    const double rho_g_h = cfg.rho * cfg.g * cfg.column_height;
     const auto observe = [&](const auto& sim) {
       const auto& c = sim.counters();
       const auto& st = sim.state();
@@ -86,6 +97,7 @@ int main(int argc, char** argv) {
                            static_cast<index_t>(std::count_if(st.flags().begin(), st.flags().begin() + st.n_real(),
                                                               [](flag::type f) { return (f & flag::isolated) != 0; })));
       last_it = c.ppe_iterations;
+      if (trace && traced < 20 && cases::trace_fast_particle(trace_out, sim, trace_speed, rho_g_h, db.t_star(sim.time()))) ++traced;
       if (obstacle) {
         obstacle_t.push_back(sim.time());
         obstacle_p.push_back(cases::probe_pressure(sim, probe, cfg.L));
@@ -171,6 +183,9 @@ int main(int argc, char** argv) {
                   m.peak, m.peak_filtered, m.peak_sparse, cases::tanaka_dam_break::paper_peak_pressure);
     else
       std::printf("  probe (%.0f, %.0f) mm: dry to the end\n", probe[0] * 1e3, probe[1] * 1e3);
+    if (trace)
+      std::printf("  trace: %d step(s) with a fluid particle faster than %g m/s in %s/trace.txt (pressures in rho g H)\n",
+                  traced, trace_speed, out.c_str());
     io::print_summary(std::cout, counters.summary(wall));
     std::printf("  output: %s/tanaka_dam_break.pvd (%ld files), front.csv, probe.csv%s\n", out.c_str(),
                 long(vtk.files_written()), pictures ? ", particles.png, front.png, probe.png" : " (no gnuplot: pictures skipped)");

@@ -1,12 +1,13 @@
 #pragma once
 // What the runners measure during a run: the fluid volume, the velocity flux through a slab, the extreme fluid
 // pressures and speeds with where and when (channels, gears), a pressure probe's first impact (dam breaks), and the
-// closest pair of particles (clustering).
+// closest pair of particles (clustering), and a trace of the fastest particle's neighbourhood (failures).
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <ostream>
 #include <type_traits>
 #include <vector>
 
@@ -183,6 +184,47 @@ inline impact_measures measure_impact(const std::vector<double>& t, const std::v
     }
   }
   return m;
+}
+
+/// Writes the fastest fluid particle of an LSMPS simulation's last step and every particle within its support
+/// radius R_e = re_ratio L_i (fluid and imaginary wall copies, with each copy's parent) to `out`, when its speed
+/// exceeds `speed` (m/s); returns whether it wrote. For finding where a run starts to fail (the error of a
+/// collapsed time step names only the particle): offsets in L_i, pressures in units of `p_unit` (e.g. ρgH),
+/// c the packing ratio of that step, s the surface flag. The neighbours are found by a full scan (O(N) per
+/// call): meant for the few steps after a threshold is first crossed. Positions are those after the step; the
+/// copies are the step's (made before the move).
+template <class Sim>
+bool trace_fast_particle(std::ostream& out, const Sim& sim, double speed, double p_unit, double T) {
+  const auto& st = sim.state();
+  const index_t n = st.n_real(), nt = st.size();
+  if (n == 0) return false;
+  index_t f = 0;
+  double umax = 0.0;
+  for (index_t i = 0; i < n; ++i)
+    if (const double v = st.u().col(i).norm(); v > umax) umax = v, f = i;
+  if (!(umax > speed)) return false;
+  const auto& P = st.template get<field::pressure>();
+  const auto& parent = st.template get<field::parent>();
+  const auto& c = sim.packing_ratio();
+  const double L = sim.diameter(f), R = sim.params().op.re_ratio * L;
+  const auto packing = [&](index_t j) { return j < c.size() ? c[j] : std::nan(""); };
+  const auto line = [&](const char* what, index_t j) {
+    out << "  " << what << ' ' << j << "  d/L (" << (st.x()(0, j) - st.x()(0, f)) / L;
+    for (int a = 1; a < st.x().rows(); ++a) out << ", " << (st.x()(a, j) - st.x()(a, f)) / L;
+    out << ")  u (" << st.u()(0, j);
+    for (int a = 1; a < st.x().rows(); ++a) out << ", " << st.u()(a, j);
+    out << ") m/s  p " << P[j] / p_unit << "  c " << packing(j) << "  s " << ((st.flags()[j] & flag::surface) != 0);
+    if (j >= n) out << "  parent " << parent[static_cast<std::size_t>(j)];
+    out << '\n';
+  };
+  out << "T " << T << " t " << sim.time() << " s, step " << sim.counters().steps << ", dt " << sim.dt()
+      << " s: fastest fluid particle " << f << " at |u| = " << umax << " m/s, x = (" << st.x()(0, f);
+  for (int a = 1; a < st.x().rows(); ++a) out << ", " << st.x()(a, f);
+  out << ") m\n";
+  line("self", f);
+  for (index_t j = 0; j < nt; ++j)
+    if (j != f && (st.x().col(j) - st.x().col(f)).norm() < R) line(j < n ? "fluid" : "copy ", j);
+  return true;
 }
 
 }  // namespace mpskit::cases
