@@ -14,6 +14,7 @@
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/exec.hpp"
 #include "mpskit/core/fields.hpp"
+#include "mpskit/core/kinds.hpp"
 #include "mpskit/search/domain.hpp"
 #include "mpskit/search/neighbour_list.hpp"
 
