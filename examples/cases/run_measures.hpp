@@ -192,7 +192,8 @@ inline impact_measures measure_impact(const std::vector<double>& t, const std::v
 /// exceeds `speed` (m/s); returns whether it wrote. For finding where a run starts to fail (the error of a
 /// collapsed time step names only the particle): offsets in L_i, pressures in units of `p_unit` (e.g. ρgH),
 /// c the packing ratio of that step, s the surface flag. The neighbours are found by a full scan (O(N) per
-/// call): meant for the few steps after a threshold is first crossed. Positions are those after the step; the
+/// call; offsets by the step's list's minimum image on periodic axes): meant for the few steps after a
+/// threshold is first crossed. Positions are those after the step; the
 /// copies are the step's (made before the move).
 template <class Sim>
 bool trace_fast_particle(std::ostream& out, const Sim& sim, double speed, double p_unit, double T) {
@@ -210,8 +211,9 @@ bool trace_fast_particle(std::ostream& out, const Sim& sim, double speed, double
   const double L = sim.diameter(f), R = sim.params().op.re_ratio * L;
   const auto packing = [&](index_t j) { return j < c.size() ? c[j] : std::nan(""); };
   const auto line = [&](const char* what, index_t j) {
-    out << "  " << what << ' ' << j << "  d/L (" << (st.x()(0, j) - st.x()(0, f)) / L;
-    for (int a = 1; a < st.x().rows(); ++a) out << ", " << (st.x()(a, j) - st.x()(a, f)) / L;
+    const auto d = sim.neighbours().displacement(st.x(), f, j);  // x_j − x_f, minimum image on periodic axes
+    out << "  " << what << ' ' << j << "  d/L (" << d[0] / L;
+    for (int a = 1; a < d.size(); ++a) out << ", " << d[a] / L;
     out << ")  u (" << st.u()(0, j);
     for (int a = 1; a < st.x().rows(); ++a) out << ", " << st.u()(a, j);
     out << ") m/s  p " << P[j] / p_unit << "  c " << packing(j) << "  s " << ((st.flags()[j] & flag::surface) != 0);
@@ -224,7 +226,7 @@ bool trace_fast_particle(std::ostream& out, const Sim& sim, double speed, double
   out << ") m\n";
   line("self", f);
   for (index_t j = 0; j < nt; ++j)
-    if (j != f && (st.x().col(j) - st.x().col(f)).norm() < R) line(j < n ? "fluid" : "copy ", j);
+    if (j != f && sim.neighbours().displacement(st.x(), f, j).norm() < R) line(j < n ? "fluid" : "copy ", j);
   return true;
 }
 
