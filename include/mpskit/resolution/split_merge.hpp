@@ -242,6 +242,8 @@ enum class refusal : std::uint8_t {
   wall,                 ///< split: every direction with e_i < α_e puts a child within wall_clearance·L′ of a wall
   wall_contact,         ///< split: the parent touches a wall and every remaining direction leaves it out of contact
   degenerate_normal,    ///< split: a surface particle without a usable normal
+  neighbour_children,   ///< split: every direction with e_i < α_e against the children of a neighbour split earlier
+                        ///< in the same call (lower id) puts a child too close to one of them
   no_partner,           ///< merge: no eligible neighbour with r_ij < α_r L_ij
   would_split,          ///< merge: every merged particle would split at once (L*(x′) < β_s L′)
   partner_taken,        ///< merge: every eligible partner merged with another particle
@@ -257,6 +259,7 @@ constexpr const char* name(refusal r) {
     case refusal::wall: return "wall";
     case refusal::wall_contact: return "wall_contact";
     case refusal::degenerate_normal: return "degenerate_normal";
+    case refusal::neighbour_children: return "neighbour_children";
     case refusal::no_partner: return "no_partner";
     case refusal::would_split: return "would_split";
     case refusal::partner_taken: return "partner_taken";
@@ -295,6 +298,7 @@ struct split_merge_report {
   index_t wanted_merge = 0;                ///< ... for a merge
   index_t splits = 0;                      ///< splits done
   index_t merges = 0;                      ///< merges done
+  index_t redirected = 0;                  ///< splits whose direction was chosen again against a neighbour's children
   std::array<index_t, refusal_count> refused{};  ///< wanted events not done, by reason
   std::vector<split_event<D>> split_events;      ///< every split, in old index order
   std::vector<merge_event<D>> merge_events;      ///< every merge, in pairing order
@@ -455,6 +459,7 @@ struct split_merge final {
       for_each_particle(e, static_cast<index_t>(split_cand_.size()), [&](index_t k) {
         choice_[static_cast<std::size_t>(k)] = choose_direction(split_cand_[static_cast<std::size_t>(k)], dirs);
       });
+      resolve_neighbour_splits(dirs);
       for (const split_choice& c : choice_)
         if (!c.ok) ++rep_.refused[static_cast<std::size_t>(c.why)];
       // 3. Merges.
@@ -685,7 +690,7 @@ struct split_merge final {
     /// ties (|Δρ| ≤ 1e-12 ρ; e_i = 0 is a tie of all clear directions) broken by the larger clearance
     /// ρ = min_j r_i′j / L_ij over the neighbours within 2 L_ij + δ, then by the lower candidate index; the
     /// first in that order whose children pass the wall check.
-    split_choice choose_direction(index_t i, const std::vector<vec<D>>& dirs) const {
+    split_choice choose_direction(index_t i, const std::vector<vec<D>>& dirs, bool with_children = false) const {
       split_choice out;
       const auto& x = s_.x();
       const double Li = L(i);
@@ -711,6 +716,15 @@ struct split_merge final {
         const index_t j = static_cast<index_t>(jj);
         if (j == i) continue;
         const vec<D> xij = in_.neighbours->displacement(x, i, j);
+        if (with_children && j < static_cast<index_t>(done_.size()) && done_[static_cast<std::size_t>(j)] != npos) {
+          // j splits in this call (decided before i): its children take its place (resolve_neighbour_splits).
+          for (const vec<D>& xc : children_offsets(j, xij)) {
+            const double Lij = 0.5 * (Li + Pattern_::template child_ratio<D>() * L(j));
+            const double reach = 2.0 * Lij + delta;
+            if (xc.squaredNorm() < reach * reach) near.emplace_back(xc, Lij);
+          }
+          continue;
+        }
         const double Lij = 0.5 * (Li + L(j));  // eq. 69: L_ij = (L_i + L_j)/2 with the parent's L_i
         const double reach = 2.0 * Lij + delta;
         if (xij.squaredNorm() < reach * reach) near.emplace_back(xij, Lij);
@@ -765,6 +779,59 @@ struct split_merge final {
       out.why = !any_admissible ? refusal::error_function : lost_contact ? refusal::wall_contact : refusal::wall;
       return out;
     }
+    /// Offsets from particle i of the two children of j (decided split k = done_[j]), given x_ij.
+    std::array<vec<D>, 2> children_offsets(index_t j, const vec<D>& xij) const {
+      const split_choice& cj = choice_[static_cast<std::size_t>(done_[static_cast<std::size_t>(j)])];
+      const vec<D> dj = (0.5 * p_.alpha_t * Pattern_::template child_ratio<D>() * L(j)) * cj.t;  // eq. 67
+      return {vec<D>(xij + dj), vec<D>(xij - dj)};
+    }
+
+    /// Neighbouring splits in one call (ours; the paper is silent). Eqs. 68–69 measure a candidate's
+    /// children against the neighbours as they are, so when two neighbours split in the same step each
+    /// child is checked against the other's parent, which is about to vanish, and not against its children:
+    /// measured, two second-generation children 0.27 L apart at a 3D wall (docs/resolution.md). The
+    /// choices are therefore revisited in increasing id order (deterministic, independent of threads and
+    /// input order): a split whose children come within (1 − α_e) L_ij of the children of a neighbour
+    /// decided before it chooses its direction again with those children in place of that neighbour
+    /// (counted in `redirected`), or is refused (`neighbour_children`) and may split in a later step.
+    void resolve_neighbour_splits(const std::vector<vec<D>>& dirs) {
+      done_.assign(static_cast<std::size_t>(s_.size()), npos);
+      std::vector<std::size_t> order;
+      for (std::size_t k = 0; k < choice_.size(); ++k)
+        if (choice_[k].ok) order.push_back(k);
+      if (order.size() < 2) {
+        for (std::size_t k : order) done_[static_cast<std::size_t>(split_cand_[k])] = static_cast<index_t>(k);
+        return;
+      }
+      std::sort(order.begin(), order.end(),
+                [&](std::size_t a, std::size_t b) { return id_of(split_cand_[a]) < id_of(split_cand_[b]); });
+      const auto& x = s_.x();
+      for (const std::size_t k : order) {
+        const index_t i = split_cand_[k];
+        const double Li = L(i);
+        const vec<D> d = (0.5 * p_.alpha_t * Pattern_::template child_ratio<D>() * Li) * choice_[k].t;
+        bool clash = false;
+        for (const auto jj : in_.neighbours->neighbours(i)) {
+          const index_t j = static_cast<index_t>(jj);
+          if (j == i || j >= static_cast<index_t>(done_.size()) || done_[static_cast<std::size_t>(j)] == npos) continue;
+          const double Lij = 0.5 * (Li + Pattern_::template child_ratio<D>() * L(j));
+          for (const vec<D>& xc : children_offsets(j, in_.neighbours->displacement(x, i, j)))
+            if (std::min((xc - d).norm(), (xc + d).norm()) / Lij <= 1.0 - p_.alpha_e) clash = true;
+        }
+        if (clash) {
+          split_choice c = choose_direction(i, dirs, true);
+          if (!c.ok) {
+            choice_[k] = split_choice{};
+            choice_[k].why = refusal::neighbour_children;
+            continue;
+          }
+          choice_[k] = c;
+          ++rep_.redirected;
+        }
+        done_[static_cast<std::size_t>(i)] = static_cast<index_t>(k);
+      }
+    }
+
     static bool better(double a, double b) {
       if (std::isinf(a) || std::isinf(b)) return a > b;
       return a > b * (1.0 + tie);
@@ -900,6 +967,7 @@ struct split_merge final {
     std::vector<std::uint8_t> eligible_;
     std::vector<index_t> split_cand_;
     std::vector<split_choice> choice_;
+    std::vector<index_t> done_;  ///< per particle: its decided split (slot in choice_), npos otherwise (resolve_neighbour_splits)
     std::vector<pair_t> pairs_;
     split_merge_report<D> rep_{};
   };
