@@ -11,6 +11,9 @@
 ///     [0, π); 3D: a Fibonacci hemisphere; surface particles: N_θ directions of the plane t·n = 0, in 2D the
 ///     one tangent) minimising e_i (eqs. 68–69) with e_i < α_e, children x ± (α_t/2) L′ t (eqs. 65, 67)
 ///     whose signed wall distance is ≥ wall_clearance · L′; velocities u ± ⟨∇u⟩ (α_t/2) L′ t (eq. 70).
+///     Then, sequentially in id order, a split whose children clash with those of a neighbour split decided
+///     before it chooses again with that neighbour's children in its place, or is refused (ours:
+///     resolve_neighbour_splits, docs/resolution.md Choices 11).
 ///  3. Merges: i (L*_i > β_m L_i) with j, both non-isolated fluid and not asking to split, r_ij < α_r L_ij,
 ///     and only if the merged particle would not split at once (trigger at x′ with L′). Pairs are formed
 ///     by iterated mutual nearest neighbours: eligible pairs are taken in increasing (rank, r_ij², lower id,
@@ -242,8 +245,9 @@ enum class refusal : std::uint8_t {
   wall,                 ///< split: every direction with e_i < α_e puts a child within wall_clearance·L′ of a wall
   wall_contact,         ///< split: the parent touches a wall and every remaining direction leaves it out of contact
   degenerate_normal,    ///< split: a surface particle without a usable normal
-  neighbour_children,   ///< split: every direction with e_i < α_e against the children of a neighbour split earlier
-                        ///< in the same call (lower id) puts a child too close to one of them
+  neighbour_children,   ///< split: its children clashed with those of a neighbour split earlier in the same call
+                        ///< (lower id), and no direction is admissible (eqs. 68–69 and the wall rules) once that
+                        ///< neighbour's children replace it
   no_partner,           ///< merge: no eligible neighbour with r_ij < α_r L_ij
   would_split,          ///< merge: every merged particle would split at once (L*(x′) < β_s L′)
   partner_taken,        ///< merge: every eligible partner merged with another particle
@@ -695,7 +699,7 @@ struct split_merge final {
       const auto& x = s_.x();
       const double Li = L(i);
       const double Lc = Pattern_::template child_ratio<D>() * Li;  // eq. 65
-      const double delta = 0.5 * p_.alpha_t * Lc;                 // eq. 67
+      const double delta = half_offset(i);                        // eq. 67
       const bool surface = (flag_of(i) & flag::surface) != 0;
       std::vector<vec<D>> tangents;
       const std::vector<vec<D>>* cand = &dirs;
@@ -716,6 +720,8 @@ struct split_merge final {
         const index_t j = static_cast<index_t>(jj);
         if (j == i) continue;
         const vec<D> xij = in_.neighbours->displacement(x, i, j);
+        // (The list has exactly s_.size() rows, checked in check_inputs, so j < done_.size() always holds; ghost
+        // rows never split, and an earlier split's wall copies still stand for its parent: conservative.)
         if (with_children && j < static_cast<index_t>(done_.size()) && done_[static_cast<std::size_t>(j)] != npos) {
           // j splits in this call (decided before i): its children take its place (resolve_neighbour_splits).
           for (const vec<D>& xc : children_offsets(j, xij)) {
@@ -779,10 +785,12 @@ struct split_merge final {
       out.why = !any_admissible ? refusal::error_function : lost_contact ? refusal::wall_contact : refusal::wall;
       return out;
     }
+    /// δ = (α_t/2) L′ (eq. 67, L′ of eq. 65): the distance of each child from its parent.
+    double half_offset(index_t i) const { return 0.5 * p_.alpha_t * (Pattern_::template child_ratio<D>() * L(i)); }
     /// Offsets from particle i of the two children of j (decided split k = done_[j]), given x_ij.
     std::array<vec<D>, 2> children_offsets(index_t j, const vec<D>& xij) const {
       const split_choice& cj = choice_[static_cast<std::size_t>(done_[static_cast<std::size_t>(j)])];
-      const vec<D> dj = (0.5 * p_.alpha_t * Pattern_::template child_ratio<D>() * L(j)) * cj.t;  // eq. 67
+      const vec<D> dj = half_offset(j) * cj.t;  // eq. 67
       return {vec<D>(xij + dj), vec<D>(xij - dj)};
     }
 
@@ -809,7 +817,7 @@ struct split_merge final {
       for (const std::size_t k : order) {
         const index_t i = split_cand_[k];
         const double Li = L(i);
-        const vec<D> d = (0.5 * p_.alpha_t * Pattern_::template child_ratio<D>() * Li) * choice_[k].t;
+        const vec<D> d = half_offset(i) * choice_[k].t;
         bool clash = false;
         for (const auto jj : in_.neighbours->neighbours(i)) {
           const index_t j = static_cast<index_t>(jj);
