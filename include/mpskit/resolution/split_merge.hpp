@@ -499,8 +499,7 @@ struct split_merge final {
         const split_choice& c = choice_[k];
         if (!c.ok) continue;
         const index_t i = split_cand_[k];
-        const double Lc = Pattern_::template child_ratio<D>() * L(i);  // eq. 65
-        const vec<D> d = (0.5 * p_.alpha_t * Lc) * c.t;               // eq. 67
+        const vec<D> d = half_offset(i) * c.t;  // eq. 67 (the offset resolve_neighbour_splits assumed)
         const mat<D> G = grad_u(i);
         if (!G.allFinite()) fail("split_merge: grad_u of particle ", i, " (id ", id_of(i), ") is not finite");
         const vec<D> a = G * d;  // eq. 70: u_i′ = u_i + ⟨∇u⟩_i (x_i′ − x_i), computed once for ± (exact cancellation)
@@ -820,6 +819,7 @@ struct split_merge final {
         const vec<D> d = half_offset(i) * choice_[k].t;
         bool clash = false;
         for (const auto jj : in_.neighbours->neighbours(i)) {
+          if (clash) break;
           const index_t j = static_cast<index_t>(jj);
           if (j == i || j >= static_cast<index_t>(done_.size()) || done_[static_cast<std::size_t>(j)] == npos) continue;
           const double Lij = 0.5 * (Li + Pattern_::template child_ratio<D>() * L(j));
