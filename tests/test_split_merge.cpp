@@ -1436,13 +1436,15 @@ TEST_SUITE("multires_hard") {
   // target(x, t): L* as a function of position and time. T_end in √(H/g).
   template <int D = 2, class Target>
   hard_outcome run_hard_tank(const cases::polygon_tank_config& tc, double T_end, const Target& target,
-                             double wall_contact = std::numeric_limits<double>::infinity()) {
+                             double wall_contact = std::numeric_limits<double>::infinity(),
+                             scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient) {
     const auto tank = cases::make_polygon_tank<D>(tc);
     scheme::lsmps_state<D> s0(tank.size());
     s0.x() = tank.x;
     s0.template get<field::volume>().setConstant(std::pow(tc.L, D));
     scheme::lsmps_params<D> p;
     p.resolution.wall_contact = wall_contact;
+    p.copy_row = copy_row;
     double now = 0.0;
     p.resolution.target_diameter = [&](const vec<D>& x) { return target(x, now); };
     simulation<tank_multires<D>> sim(p, std::move(s0), &tank.walls);
@@ -1559,8 +1561,8 @@ TEST_SUITE("multires_hard") {
     // edge inside), a linear ramp to 1.05 L 30 mm outside it, ramped in over 0.15 s (1.7 √(H/g)): three
     // generations (0.794, 0.630, 0.5 L). Measured (2026-11-26): 384 → 532 particles (153 splits, 5 merges), max
     // |u| 0.22 √(gH) during the ramp and 1.6e-2 at the end, min r_ij/L_ij 0.487, c ≤ 1.38, guard 0, 34 s of one
-    // core. Not covered: a refined zone that holds a vertical edge of the box (two walls meeting at the free
-    // surface) fails (docs/resolution.md "3D").
+    // core. A refined zone that holds a vertical edge of the box (two walls meeting at the free surface) fails
+    // with these (default) wall rows: the next case, and docs/resolution.md "What fails in 3D".
     cases::polygon_tank_config tc = box_tank(0.1, 0.075, 0.15);
     tc.L = 0.0125;
     tc.B = 0.1;
@@ -1575,6 +1577,31 @@ TEST_SUITE("multires_hard") {
     CHECK(o.Lmin <= 0.51 * L);  // the ratio was reached: three generations, L/2
     CHECK(o.splits > 100);
     CHECK(o.umax_end <= 5e-2);  // settled after the ramp (measured 1.6e-2 √(gH))
+  }
+
+  TEST_CASE("multires_hard: 3D, the whole right wall refined (vertical edges, triple corners), Neumann-point rows, 7 sqrt(H/g)") {
+    // The box of the previous case with L* = L/2 for x ≥ 85 mm (the whole right wall: both vertical edges from
+    // the floor through the free surface and both triple corners at the floor), a linear ramp to 1.05 L 30 mm
+    // outside it, ramped in over 0.15 s. With the default wall rows (copy_row = parent_gradient) this fails: the
+    // PPE does not converge at 1.41 √(H/g) (2.44 with a 0.5 s ramp; docs/resolution.md "What fails in 3D").
+    // With the copies as Neumann points (copy_row = neumann_points, docs/lsmps_scheme.md deviation 11; opt-in)
+    // it runs to the end. Measured (2026-11-28, one core, 28 s): 384 -> 949 particles (583 splits, 18 merges),
+    // max |u| 0.19 √(gH) during the ramp and 2.2e-2 at the end, min r_ij/L_ij 0.398, c ≤ 1.54, guard 0.
+    // With shift_second_wall on (opt-in, deviation 12) the same run closes two L/2 particles at a floor
+    // triple corner to 0.27 L by slow drift: that option is off here, as by default.
+    cases::polygon_tank_config tc = box_tank(0.1, 0.075, 0.15);
+    tc.L = 0.0125;
+    tc.B = 0.1;
+    const double L = tc.L;
+    const auto o = run_hard_tank<3>(tc, 7.0, [L](const vec<3>& x, double t) {
+      const double Lf = L / (1.0 + std::min(t / 0.15, 1.0));
+      const double f = std::clamp(std::max(0.085 - x[0], 0.0) / 0.03, 0.0, 1.0);
+      return Lf + f * (1.05 * L - Lf);
+    }, std::numeric_limits<double>::infinity(), scheme::copy_row_kind::neumann_points);
+    check_issue_bounds(o);  // min r_ij/L_ij ≥ 0.3 (measured 0.398), max |u| ≤ 5 √(gH) (0.19), c ≤ 2 (1.54)
+    CHECK(o.Lmin <= 0.51 * L);  // the ratio was reached: L/2
+    CHECK(o.splits > 400);      // the whole wall split (measured 583)
+    CHECK(o.umax_end <= 5e-2);  // settled after the ramp (measured 2.2e-2 √(gH))
   }
 }  // TEST_SUITE
 
