@@ -1502,6 +1502,14 @@ TEST_SUITE("multires_hard") {
     return tc;
   }
 
+  // The 3D box W = B = 0.1 m filled to H = 0.075 m with L = 12.5 mm (384 particles).
+  cases::polygon_tank_config box_tank_3d() {
+    cases::polygon_tank_config tc = box_tank(0.1, 0.075, 0.15);
+    tc.L = 0.0125;
+    tc.B = 0.1;
+    return tc;
+  }
+
   // The issue's bounds, common to every case.
   void check_issue_bounds(const hard_outcome& o) {
     CHECK(o.umax_run <= 5.0);
@@ -1563,9 +1571,7 @@ TEST_SUITE("multires_hard") {
     // |u| 0.22 √(gH) during the ramp and 1.6e-2 at the end, min r_ij/L_ij 0.487, c ≤ 1.38, guard 0, 34 s of one
     // core. A refined zone that holds a vertical edge of the box (two walls meeting at the free surface) fails
     // with these (default) wall rows: the next case, and docs/resolution.md "What fails in 3D".
-    cases::polygon_tank_config tc = box_tank(0.1, 0.075, 0.15);
-    tc.L = 0.0125;
-    tc.B = 0.1;
+    const cases::polygon_tank_config tc = box_tank_3d();
     const double L = tc.L;
     const auto o = run_hard_tank<3>(tc, 4.0, [L](const vec<3>& x, double t) {
       const double Lf = L / (1.0 + std::min(t / 0.15, 1.0));
@@ -1589,9 +1595,7 @@ TEST_SUITE("multires_hard") {
     // max |u| 0.19 √(gH) during the ramp and 2.2e-2 at the end, min r_ij/L_ij 0.398, c ≤ 1.54, guard 0.
     // With shift_second_wall on (opt-in, deviation 12) the same run closes two L/2 particles at a floor
     // triple corner to 0.27 L by slow drift: that option is off here, as by default.
-    cases::polygon_tank_config tc = box_tank(0.1, 0.075, 0.15);
-    tc.L = 0.0125;
-    tc.B = 0.1;
+    const cases::polygon_tank_config tc = box_tank_3d();
     const double L = tc.L;
     const auto o = run_hard_tank<3>(tc, 7.0, [L](const vec<3>& x, double t) {
       const double Lf = L / (1.0 + std::min(t / 0.15, 1.0));
