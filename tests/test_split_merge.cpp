@@ -1591,10 +1591,12 @@ TEST_SUITE("multires_hard") {
     // outside it, ramped in over 0.15 s. With the default wall rows (copy_row = parent_gradient) this fails: the
     // PPE does not converge at 1.41 √(H/g) (2.44 with a 0.5 s ramp; docs/resolution.md "What fails in 3D").
     // With the copies as Neumann points (copy_row = neumann_points, docs/lsmps_scheme.md deviation 11; opt-in)
-    // it runs to the end. Measured (2026-11-28, one core, 28 s): 384 -> 949 particles (583 splits, 18 merges),
+    // it runs to the end. Measured (2026-11-28; 34 s wall, two threads): 384 -> 949 particles (583 splits, 18 merges),
     // max |u| 0.19 √(gH) during the ramp and 2.2e-2 at the end, min r_ij/L_ij 0.398, c ≤ 1.54, guard 0.
-    // With shift_second_wall on (opt-in, deviation 12) the same run closes two L/2 particles at a floor
-    // triple corner to 0.27 L by slow drift: that option is off here, as by default.
+    // With shift_second_wall on (opt-in, deviation 12) this case is worse: with a 0.45 s ramp two L/2 particles in
+    // a floor triple corner drift to 0.269 L_ij (0.452 with it off); with this 0.15 s ramp a burst there gives
+    // 0.240 and max |u| 8.5 √(gH) (rerun 2026-11-28; 2.85 in the earlier run of docs/resolution.md). That option is
+    // off here, as by default.
     const cases::polygon_tank_config tc = box_tank_3d();
     const double L = tc.L;
     const auto o = run_hard_tank<3>(tc, 7.0, [L](const vec<3>& x, double t) {
