@@ -66,8 +66,9 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 
 /// The wall options the dam-break runs compare (docs/lsmps_scheme.md): parent_gradient (the library's
 /// defaults), neumann_points (copy_row = neumann_points, deviation 11), two_point_wall_only (copy_two_point = 1
-/// and shift.projection = wall_only) and two_point_wall_only_active_set (the same with active_set_solves = 10,
-/// deviation 13). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
+/// and shift.projection = wall_only), two_point_wall_only_active_set (the same with active_set_solves = 10,
+/// deviation 13) and neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
+/// configuration of the main example, examples/multires_dam_break.cpp). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
 struct tanaka_wall_variant {
   std::string name;   ///< as given on a command line
   std::string tag;    ///< suffix of a configuration name
@@ -88,6 +89,12 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
       {"two_point_wall_only_active_set", "-tpa", ", two-point rows + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {
          two_point_wall_only(p);
+         p.active_set_solves = 10;
+       }},
+      {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
+       [](scheme::lsmps_params<2>& p) {
+         p.copy_row = scheme::copy_row_kind::neumann_points;
+         p.shift.projection = regularize::penalty_projection::wall_only;
          p.active_set_solves = 10;
        }}};
   return v;
