@@ -1,4 +1,4 @@
-// The main example: 2D dam break (Koshizuka & Oka 1996 set-up: column a × 2a, a = 0.146 m, tank 4a) with
+// The classic MPS dam break (the main example until issue #9; now examples/multires_dam_break.cpp): 2D dam break (Koshizuka & Oka 1996 set-up: column a × 2a, a = 0.146 m, tank 4a) with
 // the default classic scene (mpskit::defaults<2>). Writes to out/dam_break/:
 //   dam_break.pvd + dam_break_*.vtu   ParaView series (every 0.25 in T), all particle fields
 //   front.csv                          surge front Z(T) with the data band

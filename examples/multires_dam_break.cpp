@@ -40,56 +40,24 @@
 #include <string>
 #include <vector>
 
-#include "cases/tanaka_dam_break_run.hpp"
+#include "cases/tanaka_obstacle_multires.hpp"
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
-#include "mpskit/resolution/split_merge.hpp"
 
 namespace fs = std::filesystem;
 using namespace mpskit;
 
 namespace {
 
-struct multires_scene : lsmps_defaults<2> {
-  using resolution = mpskit::resolution::split_merge<>;
-};
-
 struct run_record {
   std::string name;
   double L = 0.0;                 ///< the run's coarse diameter (m)
   cases::tanaka_dam_break_result r;
   double mean_particles = 0.0;    ///< fluid particles averaged over the steps
-  double front_rms = std::nan(""), front_max = std::nan("");  ///< against the reference, over `compared` samples
-  int compared = 0;
-  double T_compared = std::nan("");  ///< the last T compared
+  cases::front_difference front;  ///< against the fine run
   double T_reached() const { return r.failed ? r.T_failed : r.T.empty() ? 0.0 : r.T.back(); }
 };
-
-/// The front of `run` at the reference's sample times (linear between its samples; the runs sample at the first
-/// step at or after each multiple of 0.05 T, so their sample times differ by up to a step): RMS and largest
-/// relative difference |Z/Z_ref − 1| over the common interval.
-void compare_front(run_record& run, const cases::tanaka_dam_break_result& ref) {
-  const auto& T = run.r.T;
-  const auto& Z = run.r.Z;
-  double sum = 0.0, worst = 0.0;
-  int n = 0;
-  for (std::size_t k = 0; k < ref.T.size(); ++k) {
-    const double t = ref.T[k];
-    if (T.size() < 2 || t < T.front() || t > T.back()) continue;
-    const std::size_t j = std::clamp<std::size_t>(
-        static_cast<std::size_t>(std::upper_bound(T.begin(), T.end(), t) - T.begin()), 1, T.size() - 1);
-    const double a = (t - T[j - 1]) / (T[j] - T[j - 1]);
-    const double e = std::abs(((1.0 - a) * Z[j - 1] + a * Z[j]) / ref.Z[k] - 1.0);
-    if (!std::isfinite(e)) continue;
-    sum += e * e;
-    worst = std::max(worst, e);
-    ++n;
-    run.T_compared = t;
-  }
-  run.compared = n;
-  if (n > 0) run.front_rms = std::sqrt(sum / n), run.front_max = worst;
-}
 
 /// A diameter in mm as %g prints it ("2.5").
 std::string fmt_mm(double L) {
@@ -126,23 +94,19 @@ int main(int argc, char** argv) {
     if (!(L_mm > 0.0 && std::isfinite(L_mm))) fail(who, ": --L ", L_mm, " mm: must be > 0");
     if (!(ratio >= 1.0 && std::isfinite(ratio))) fail(who, ": --ratio ", ratio, ": must be >= 1");
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail(who, ": --T ", T_end, ": must be > 0");
-    if (!(r0_mm >= 0.0 && r1_mm > r0_mm && std::isfinite(r1_mm)))
-      fail(who, ": --r0 ", r0_mm, " mm, --r1 ", r1_mm, " mm: need 0 <= r0 < r1");
-    const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named("neumann_points_wall_only_active_set", who);
-    const double L = 1e-3 * L_mm, Lf = L / ratio, r0 = 1e-3 * r0_mm, r1 = 1e-3 * r1_mm;
+    const double L = 1e-3 * L_mm, Lf = L / ratio;
     const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
     const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);
     cfg_coarse.validate();
     cfg_fine.validate();
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg_coarse);
-    const vec<2> centre(cfg_coarse.obstacle_centre, 0.5 * cfg_coarse.obstacle_height);
 
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "multires_dam_break");
     std::printf("mpskit: Tanaka's dam break with the 10 x 10 mm obstacle (Tanaka 2018 sec. 5.6.2), LSMPS scheme, walls '%s', "
                 "to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
                 "single resolution at %g and %g mm%s\n",
-                walls.name.c_str(), T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
+                "neumann_points_wall_only_active_set", T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
                 single ? "" : " skipped (--no-single)");
 
     std::vector<run_record> runs;
@@ -180,14 +144,10 @@ int main(int argc, char** argv) {
       runs.push_back(std::move(rec));
     };
 
-    scheme::lsmps_params<2> p;
-    walls.apply(p);
+    const scheme::lsmps_params<2> p = cases::obstacle_params();
     scheme::lsmps_params<2> pm = p;
-    pm.resolution.target_diameter = [=](const vec<2>& x) {
-      return Lf + std::clamp(((x - centre).norm() - r0) / (r1 - r0), 0.0, 1.0) * (1.05 * L - Lf);
-    };
-    pm.resolution.wall_contact = 0.75;  // a split beside a wall keeps a child in contact (docs/resolution.md)
-    run.operator()<multires_scene>("multi", cfg_coarse, pm, true);
+    cases::refine_around_block(pm, cfg_coarse, ratio, 1e-3 * r0_mm, 1e-3 * r1_mm);
+    run.operator()<cases::obstacle_multires_scene>("multi", cfg_coarse, pm, true);
     if (single) {
       run.operator()<lsmps_defaults<2>>("coarse", cfg_coarse, p, false);
       run.operator()<lsmps_defaults<2>>("fine", cfg_fine, p, false);
@@ -195,7 +155,7 @@ int main(int argc, char** argv) {
     run_record& multi = runs[0];
     const cases::tanaka_dam_break_result* ref = single ? &runs[2].r : nullptr;
     if (ref)
-      for (run_record& rr : runs) compare_front(rr, *ref);
+      for (run_record& rr : runs) rr.front = cases::compare_fronts(rr.r, *ref);
 
     {
       std::vector<io::csv_column> cols{{"T", "1"}};
@@ -223,7 +183,7 @@ int main(int argc, char** argv) {
         const run_record& rr = runs[k];
         csv.row({double(k), rr.L * 1e3, rr.r.L_min * 1e3, rr.T_reached(), rr.r.failed ? 1.0 : 0.0, double(rr.r.particles),
                  rr.mean_particles, double(rr.r.particles_end), double(rr.r.splits), double(rr.r.merges), double(rr.r.steps),
-                 rr.r.wall_seconds, rr.front_rms, rr.front_max, rr.T_compared, double(rr.r.guarded), rr.r.min_pair_ratio});
+                 rr.r.wall_seconds, rr.front.rms, rr.front.max, rr.front.T_last, double(rr.r.guarded), rr.r.min_pair_ratio});
       }
     }
     const std::string gp = (fs::path(out) / "plot.gp").string();
@@ -253,7 +213,9 @@ int main(int argc, char** argv) {
       std::printf("  %-7s %5.2f %9.3f %8ld %8.0f %8ld %7ld %7ld %8.1f %7ld  ", rr.name.c_str(), rr.L * 1e3, rr.T_reached(),
                   static_cast<long>(rr.r.particles), rr.mean_particles, static_cast<long>(rr.r.particles_end), rr.r.splits,
                   rr.r.merges, rr.r.wall_seconds, rr.r.guarded);
-      if (rr.compared > 0) std::printf("%.2f %% / %.2f %% (%d samples to %.2f)\n", 100 * rr.front_rms, 100 * rr.front_max, rr.compared, rr.T_compared);
+      if (rr.front.samples > 0)
+        std::printf("%.2f %% / %.2f %% (%d samples to %.2f)\n", 100 * rr.front.rms, 100 * rr.front.max, rr.front.samples,
+                    rr.front.T_last);
       else std::printf("-\n");
     }
     for (const run_record& rr : runs)
