@@ -251,6 +251,47 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(st.x()(0, drop) == x0[0]);
     CHECK(sim.counters().isolated >= 50);
   }
+  TEST_CASE("Neumann-point walls with nothing to solve: two surface particles moving into a wall lose their normal velocity") {
+    // Every fluid particle a surface one (p = 0), so the PPE has no unknown, but the correction's gradient still
+    // carries the copies' Neumann data ∂p/∂n = ρ u′·n/Δt (eq. 83, copy_row = neumann_points, deviation 11). A
+    // vertical pair 0.5 L from the left wall, far from the floor, moving into the wall at 0.1 m/s: both have a
+    // copy, one fluid neighbour and an open cone away from the wall (surface, not isolated). Until 2026-11-29 the
+    // Neumann data was set after the no-unknown return, and this first step read an empty vector (a crash).
+    cases::polygon_tank_config tc;
+    tc.angle_deg = 90.0;
+    tc.L = 0.01;
+    tc.H = 0.05;
+    tc.W = 0.2;
+    tc.tank_height = 0.4;
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    scheme::lsmps_state<2> s0(2);
+    const double xw = 0.0;  // the left wall (polygon_tank_config: the floor runs from x = 0 to W)
+    s0.x().col(0) = vec<2>(xw + 0.5 * tc.L, 0.2);
+    s0.x().col(1) = vec<2>(xw + 0.5 * tc.L, 0.2 + tc.L);
+    s0.u().setZero();
+    s0.u().row(0).setConstant(-0.1);
+    s0.get<field::volume>().setConstant(tc.L * tc.L);
+    scheme::lsmps_params<2> p;
+    p.copy_row = scheme::copy_row_kind::neumann_points;
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_fixed = 1e-3;
+    simulation<lsmps_defaults<2>> sim(p, std::move(s0), &tank.walls);
+    sim.step();
+    const auto& st = sim.state();
+    for (index_t i = 0; i < 2; ++i) {
+      CAPTURE(i);
+      REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::surface) != 0);  // the premise: nothing to solve
+      REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::isolated) == 0);
+      CHECK(st.get<field::pressure>()[i] == 0.0);
+      MESSAGE("u = (" << st.u()(0, i) << ", " << st.u()(1, i) << ") m/s, x - x_wall = " << (st.x()(0, i) - xw) / tc.L << " L");
+      // The Neumann-point fit imposes ∂p/∂n exactly, so Δt ∂p/∂n / ρ = u′·n cancels the normal velocity to
+      // rounding (measured 1.4e-17 m/s); along the wall only gravity acts (p = 0, equal velocities: no viscous
+      // term), u_y = g Δt (measured to the last digit).
+      CHECK(std::abs(st.u()(0, i)) <= 1e-12);
+      CHECK(std::abs(st.u()(1, i) - p.g[1] * 1e-3) <= 1e-12);
+    }
+    CHECK(sim.counters().guarded == 0);
+  }
 }
 
 TEST_SUITE("bad_input") {
