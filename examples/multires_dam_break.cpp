@@ -165,6 +165,7 @@ int main(int argc, char** argv) {
       std::size_t longest = 0;
       for (const run_record& rr : runs) longest = std::max(longest, rr.r.T.size());
       for (std::size_t k = 0; k < longest; ++k) {
+        // T: the multi-resolution run's sample (the others' differ by up to a step; past its end, the nominal 0.05 k)
         std::vector<double> row{k < T0.size() ? T0[k] : 0.05 * static_cast<double>(k)};
         for (const run_record& rr : runs) row.push_back(k < rr.r.Z.size() ? rr.r.Z[k] : std::nan(""));
         csv.row(row);

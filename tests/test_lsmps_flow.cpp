@@ -140,6 +140,18 @@ cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, doubl
   return r;
 }
 
+/// A 2D box 0.2 m wide and 0.4 m tall with vertical walls (floor from x = 0 to 0.2 m), L = 10 mm, 50 mm of water:
+/// room for particles placed far from the water and the floor.
+cases::polygon_tank_config tall_box_config() {
+  cases::polygon_tank_config tc;
+  tc.angle_deg = 90.0;
+  tc.L = 0.01;
+  tc.H = 0.05;
+  tc.W = 0.2;
+  tc.tank_height = 0.4;
+  return tc;
+}
+
 }  // namespace
 
 TEST_SUITE("hydrostatic_polygon") {
@@ -217,12 +229,7 @@ TEST_SUITE("hydrostatic_polygon") {
   TEST_CASE("an isolated particle moves ballistically under gravity and is excluded from the PPE") {
     // A lone droplet far from the fluid and the walls: c < α_c (Tanaka §4.6), so u^{k+1} = u^k + Δt g and
     // x^{k+1} = x^k + Δt u^{k+1} exactly (no pressure, no viscosity, no shifting).
-    cases::polygon_tank_config tc;
-    tc.angle_deg = 90.0;
-    tc.L = 0.01;
-    tc.H = 0.05;
-    tc.W = 0.2;
-    tc.tank_height = 0.4;
+    const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     scheme::lsmps_state<2> s0(tank.size() + 1);
     s0.x().leftCols(tank.size()) = tank.x;
@@ -257,12 +264,7 @@ TEST_SUITE("hydrostatic_polygon") {
     // vertical pair 0.5 L from the left wall, far from the floor, moving into the wall at 0.1 m/s: both have a
     // copy, one fluid neighbour and an open cone away from the wall (surface, not isolated). Until 2026-11-29 the
     // Neumann data was set after the no-unknown return, and this first step read an empty vector (a crash).
-    cases::polygon_tank_config tc;
-    tc.angle_deg = 90.0;
-    tc.L = 0.01;
-    tc.H = 0.05;
-    tc.W = 0.2;
-    tc.tank_height = 0.4;
+    const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     scheme::lsmps_state<2> s0(2);
     const double xw = 0.0;  // the left wall (polygon_tank_config: the floor runs from x = 0 to W)

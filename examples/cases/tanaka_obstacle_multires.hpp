@@ -71,7 +71,7 @@ inline front_difference compare_fronts(const tanaka_dam_break_result& run, const
     const double e = std::abs(((1.0 - a) * Z[j - 1] + a * Z[j]) / ref.Z[k] - 1.0);
     if (!std::isfinite(e)) continue;
     sum += e * e;
-    if (!(e <= d.max)) d.max = e, d.T_max = t;
+    if (!(e <= d.max)) d.max = e, d.T_max = t;  // also the first (d.max NaN)
     ++d.samples;
     d.T_last = t;
   }
