@@ -874,15 +874,15 @@ class lsmps_semi_implicit {
     const points<D>& x = s_.x();
     auto& pres = s_.template get<field::pressure>();
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
-    // The rows are built twice when a fluid row's operator has a non-negative diagonal (wrong_sign_rows below):
-    // its particle becomes a Dirichlet p = 0 row and the unknowns, the c′ = 1 band and the right-hand sides are
-    // made again (the rows' coefficients do not depend on which particles are unknowns, so one repeat suffices).
     // Neumann data at copies: ∂p/∂n = ρ (u′_w − u_wall)·n / Δt (eq. 83; n toward the fluid). Set before the
     // unknowns: with Neumann-point rows the correction's gradient (stage 9) reads it at the copies even when
     // there is nothing to solve (every fluid particle a surface one; until 2026-11-29 it was set after the
     // m = 0 return, and such a step read an empty or the previous step's vector).
     dpdn_.setZero(nt);
     for (index_t k = n; k < nc_; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
+    // The rows are built twice when a fluid row's operator has a non-negative diagonal (wrong_sign_rows below):
+    // its particle becomes a Dirichlet p = 0 row and the unknowns, the c′ = 1 band and the right-hand sides are
+    // made again (the rows' coefficients do not depend on which particles are unknowns, so one repeat suffices).
     index_t m = 0;
     for (int pass = 0; pass < 2; ++pass) {
       unk_.assign(static_cast<std::size_t>(nt), npos);
