@@ -13,6 +13,7 @@
 #include "mpskit/core/fields.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/core/state.hpp"
+#include "mpskit/ppe/solve.hpp"
 #include "mpskit/scheme/time_step.hpp"
 
 using namespace mpskit;
@@ -242,6 +243,24 @@ TEST_SUITE("core") {
   }
 }
 
+namespace {
+// A solver recording Eigen::nbThreads() inside its compute and solve (Eigen's sparse × dense product reads it
+// at every call).
+struct recording_solver {
+  static constexpr bool requires_symmetric = false;
+  int in_compute = 0, in_solve = 0;
+  Eigen::ComputationInfo compute(const ppe::matrix&) {
+    in_compute = Eigen::nbThreads();
+    return Eigen::Success;
+  }
+  ppe::solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    in_solve = Eigen::nbThreads();
+    x = b;
+    return {};
+  }
+};
+}  // namespace
+
 TEST_SUITE("threads") {
   TEST_CASE("core: reductions are bitwise identical for 1 and 2 threads") {
 #ifdef _OPENMP
@@ -258,6 +277,61 @@ TEST_SUITE("threads") {
     CHECK(s1 == s2);
 #else
     MESSAGE("built without OpenMP: exec::par is sequential, nothing to compare");
+#endif
+  }
+
+  TEST_CASE("core: Eigen's own threads are held to one for systems below parallel_min_items, then restored") {
+#ifdef _OPENMP
+    // ppe::solve_checked must hold Eigen to 1 thread for a small system and leave a large one alone.
+    static_assert(ppe::LinearSolver<recording_solver>);
+    omp_set_num_threads(2);
+    Eigen::setNbThreads(0);  // follow OpenMP (Eigen's default)
+    REQUIRE(Eigen::nbThreads() == 2);
+    const auto identity = [](index_t n) {
+      ppe::matrix A(n, n);
+      A.setIdentity();
+      return A;
+    };
+    const auto describe = [](index_t r) { return std::to_string(r); };
+    for (const index_t n : {index_t{100}, parallel_min_items - 1, parallel_min_items}) {
+      CAPTURE(n);
+      const ppe::matrix A = identity(n);
+      const Eigen::VectorXd b = Eigen::VectorXd::Ones(n);
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+      recording_solver s;
+      ppe::solve_checked(s, A, b, x, ppe::solver_params{}, 0, 0.0, describe);
+      const int expected = n < parallel_min_items ? 1 : 2;
+      CHECK(s.in_compute == expected);
+      CHECK(s.in_solve == expected);
+      CHECK(Eigen::nbThreads() == 2);  // restored
+    }
+    // parallel_min_rows = 0 (solver_params): Eigen threads every system.
+    {
+      const ppe::matrix A = identity(100);
+      const Eigen::VectorXd b = Eigen::VectorXd::Ones(100);
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(100);
+      recording_solver s;
+      ppe::solver_params sp;
+      sp.parallel_min_rows = 0;
+      ppe::solve_checked(s, A, b, x, sp, 0, 0.0, describe);
+      CHECK(s.in_solve == 2);
+    }
+    // Following OpenMP is restored as such: a later omp_set_num_threads still reaches Eigen.
+    { const eigen_threads_scope hold(10); CHECK(hold.held()); CHECK(Eigen::nbThreads() == 1); }
+    omp_set_num_threads(1);
+    CHECK(Eigen::nbThreads() == 1);
+    omp_set_num_threads(2);
+    CHECK(Eigen::nbThreads() == 2);
+    // A value the caller pinned (other than OpenMP's) comes back pinned; with one thread nothing is held.
+    Eigen::setNbThreads(3);
+    { const eigen_threads_scope hold(10); CHECK(Eigen::nbThreads() == 1); }
+    CHECK(Eigen::nbThreads() == 3);
+    Eigen::setNbThreads(1);
+    { const eigen_threads_scope hold(10); CHECK_FALSE(hold.held()); }
+    CHECK(Eigen::nbThreads() == 1);
+    Eigen::setNbThreads(0);
+#else
+    MESSAGE("built without OpenMP: Eigen runs on one thread, nothing to hold");
 #endif
   }
 }

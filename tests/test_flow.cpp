@@ -316,6 +316,9 @@ TEST_SUITE("solver") {
     ppe::solver_params bad;
     bad.ilut_reuse = 0;
     CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("ilut_reuse"), mpskit::error);
+    bad = {};
+    bad.parallel_min_rows = -1;
+    CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("parallel_min_rows"), mpskit::error);
   }
 }
 

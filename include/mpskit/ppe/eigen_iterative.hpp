@@ -7,6 +7,7 @@
 #include <unsupported/Eigen/IterativeSolvers>
 
 #include "mpskit/core/error.hpp"
+#include "mpskit/core/exec.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/ppe/concepts.hpp"
 
@@ -29,13 +30,18 @@ struct solver_params {
   /// accepted; a lagged solve that fails is repeated once with a fresh factorisation. Ours (a standard
   /// lagged-preconditioner device, not in the papers); docs/lsmps_scheme.md (deviation 7) has the measured trade.
   int ilut_reuse = 4;
+  /// Systems of fewer unknowns are solved with Eigen's own threads held to one (its sparse × vector product
+  /// would otherwise open a parallel region per product; core/exec.hpp, eigen_threads_scope). The default is
+  /// exec::par's threshold: on a 2-core machine it is 2.66× faster with one competing thread and the same when
+  /// idle (docs/solver.md, deviation 7); 0 lets Eigen thread every system.
+  index_t parallel_min_rows = parallel_min_items;
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("solver_params");
     v.in_open_range("tolerance", tolerance, 0.0, 1.0).in_range("max_iterations", double(max_iterations), 1, 1e9);
     v.in_range("restart", double(restart), 1, 1e6).in_range("idrs_s", double(idrs_s), 1, 64);
     v.in_range("ilut_drop_tolerance", ilut_drop_tolerance, 0.0, 1.0).in_range("ilut_fill_factor", ilut_fill_factor, 1, 100);
-    v.in_range("ilut_reuse", ilut_reuse, 1, 1000);
+    v.in_range("ilut_reuse", ilut_reuse, 1, 1000).in_range("parallel_min_rows", double(parallel_min_rows), 0, 1e18);
     v.throw_if_any();
   }
 };

@@ -9,6 +9,7 @@
 
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
+#include "mpskit/core/exec.hpp"
 #include "mpskit/ppe/concepts.hpp"
 #include "mpskit/ppe/eigen_iterative.hpp"
 
@@ -22,6 +23,7 @@ template <LinearSolver S, class Describe>
 solve_report solve_checked(S& solver, const matrix& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
                            const solver_params& p, long step, double t, const Describe& describe,
                            bool same_unknowns = false) {
+  const eigen_threads_scope threads(A.rows(), p.parallel_min_rows);  // small systems: Eigen on one thread
   Eigen::ComputationInfo info;
   if constexpr (requires { solver.compute(A, same_unknowns); }) info = solver.compute(A, same_unknowns);
   else info = solver.compute(A);
