@@ -21,11 +21,11 @@
 #include <thread>
 #include <vector>
 
-#include <omp.h>
-
 #include "cases/poiseuille.hpp"
+#include "reporter.hpp"
 
 using namespace mpskit;
+using mpskit::bench::median;
 
 namespace {
 
@@ -46,12 +46,6 @@ sample run(bool held, double t_end) {
   c.boundary_spacing = [=](const vec<2>& x) { return std::min(Lc, target(x)); };
   const auto r = cases::run_poiseuille_pressure<cases::poiseuille_pressure_multires_scene>(c);
   return {r.wall_seconds, r.end.max_error};
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 }  // namespace
@@ -75,7 +69,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::printf("bench_eigen_threads (%s), %d OpenMP threads, %d repetitions, t_end %.3f s\n", MPSKIT_BENCH_FLAGS,
-              omp_get_max_threads(), reps, t_end);
+              max_threads(), reps, t_end);
   for (const bool loaded : {false, true}) {
     std::atomic<bool> stop{false};
     std::thread competitor;

@@ -19,8 +19,10 @@
 
 #include "cases/duct.hpp"
 #include "cases/pipe.hpp"
+#include "reporter.hpp"
 
 using namespace mpskit;
+using mpskit::bench::median;
 
 namespace {
 
@@ -44,12 +46,6 @@ sample run_duct(int reuse, double t_end) {
   c.params.solver.ilut_reuse = reuse;
   const auto r = cases::run_duct_impl<cases::duct_pressure_multires_scene>(c);
   return {r.wall_seconds, r.max_error};
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 }  // namespace
