@@ -16,8 +16,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <thread>
 #include <vector>
 
@@ -51,23 +49,12 @@ sample run(bool held, double t_end) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int reps = 4;
-  double t_end = 0.03;
-  for (int a = 1; a < argc; ++a) {
-    const bool more = a + 1 < argc;
-    if (!std::strcmp(argv[a], "--repetitions") && more) {
-      reps = std::atoi(argv[++a]);
-    } else if (!std::strcmp(argv[a], "--t-end") && more) {
-      t_end = std::atof(argv[++a]);
-    } else {
-      std::fprintf(stderr, "bench_eigen_threads: unknown or incomplete option '%s'\n", argv[a]);
-      return 2;
-    }
-  }
-  if (reps < 1 || !(t_end > 0.0)) {
-    std::fprintf(stderr, "bench_eigen_threads: --repetitions must be >= 1 and --t-end > 0\n");
-    return 2;
-  }
+  bench::run_options o;
+  o.repetitions = 4;
+  o.t_end = 0.03;
+  if (!o.parse(argc, argv, "bench_eigen_threads")) return 2;
+  const int reps = o.repetitions;
+  const double t_end = o.t_end;
   std::printf("bench_eigen_threads (%s), %d OpenMP threads, %d repetitions, t_end %.3f s\n", MPSKIT_BENCH_FLAGS,
               max_threads(), reps, t_end);
   for (const bool loaded : {false, true}) {

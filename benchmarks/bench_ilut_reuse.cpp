@@ -12,8 +12,6 @@
 // Options: --repetitions R (default 3), --t-end T (s; default 0.02 for both cases), --cases pipe,duct.
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <string>
 #include <vector>
 
@@ -51,26 +49,11 @@ sample run_duct(int reuse, double t_end) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int reps = 3;
-  double t_end = 0.02;
-  std::string which = "pipe,duct";
-  for (int a = 1; a < argc; ++a) {
-    const bool more = a + 1 < argc;
-    if (!std::strcmp(argv[a], "--repetitions") && more) {
-      reps = std::atoi(argv[++a]);
-    } else if (!std::strcmp(argv[a], "--t-end") && more) {
-      t_end = std::atof(argv[++a]);
-    } else if (!std::strcmp(argv[a], "--cases") && more) {
-      which = argv[++a];
-    } else {
-      std::fprintf(stderr, "bench_ilut_reuse: unknown or incomplete option '%s'\n", argv[a]);
-      return 2;
-    }
-  }
-  if (reps < 1 || !(t_end > 0.0)) {
-    std::fprintf(stderr, "bench_ilut_reuse: --repetitions must be >= 1 and --t-end > 0\n");
-    return 2;
-  }
+  bench::run_options o;
+  if (!o.parse(argc, argv, "bench_ilut_reuse", {"cases"})) return 2;
+  const int reps = o.repetitions;
+  const double t_end = o.t_end;
+  const std::string which = o.extra_values.count("cases") ? o.extra_values["cases"] : "pipe,duct";
   std::printf("bench_ilut_reuse (%s), %d repetitions, t_end %.3f s\n", MPSKIT_BENCH_FLAGS, reps, t_end);
   const std::vector<int> settings{1, 4, 8};
   for (const std::string name : {"pipe", "duct"}) {

@@ -68,6 +68,39 @@ inline double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/// Options of the own-main timing benchmarks: --repetitions R (≥ 1) and --t-end T (s, > 0), plus any `extra`
+/// options taking one value (their values land in `extra_values`, by name). Returns false after printing the
+/// reason to stderr (`program` names it) on an unknown or incomplete option or a bad value.
+struct run_options {
+  int repetitions = 3;
+  double t_end = 0.02;
+  std::map<std::string, std::string> extra_values;
+  bool parse(int argc, char** argv, const char* program, const std::vector<std::string>& extra = {}) {
+    for (int a = 1; a < argc; ++a) {
+      const std::string arg = argv[a];
+      if (a + 1 >= argc) {
+        std::fprintf(stderr, "%s: unknown or incomplete option '%s'\n", program, arg.c_str());
+        return false;
+      }
+      if (arg == "--repetitions") {
+        repetitions = std::atoi(argv[++a]);
+      } else if (arg == "--t-end") {
+        t_end = std::atof(argv[++a]);
+      } else if (arg.rfind("--", 0) == 0 && std::find(extra.begin(), extra.end(), arg.substr(2)) != extra.end()) {
+        extra_values[arg.substr(2)] = argv[++a];
+      } else {
+        std::fprintf(stderr, "%s: unknown or incomplete option '%s'\n", program, arg.c_str());
+        return false;
+      }
+    }
+    if (repetitions < 1 || !(t_end > 0.0)) {
+      std::fprintf(stderr, "%s: --repetitions must be >= 1 and --t-end > 0\n", program);
+      return false;
+    }
+    return true;
+  }
+};
+
 /// Runs configurations, keeps records, writes CSV / Markdown / PNG.
 class reporter {
  public:
