@@ -15,6 +15,9 @@
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
 //            --dt-ratio r: the Δt ladder Δt_max / r^k (time_step_params::ratio, in [1.001, 2]; default 2)
 //            --progress S: a progress row on stderr every S wall seconds
+//            --checkpoint FILE [--every S] [--stop-after S]: write the run (and its running measurements) to FILE
+//            every S wall seconds and at its end; --stop-after S: stop after S wall seconds, checkpoint written
+//            --resume FILE: continue such a run (give the same L, t_end and options; docs/run.md)
 //   --a2:    Tanaka A2 (§5.2): the channel refined at its walls, 0.5/R mm there to 0.5 mm in the centre (R = 4 the
 //            paper's 0.125 -> 0.5 mm; cases::a2_target) from a graded start, then single resolution at 0.5/R mm with
 //            the same Δt; particle counts, wall times, errors against the start-up series. Periodic (5 mm) by default,
@@ -205,6 +208,21 @@ int run(int argc, char** argv) {
           return 2;
         }
         if (!number("--dt-ratio", argv[++a], mc.params.time.ratio)) return 2;
+      } else if (!std::strcmp(argv[a], "--checkpoint") || !std::strcmp(argv[a], "--resume")) {  // long runs in pieces
+        if (a + 1 >= argc) {
+          std::fprintf(stderr, "channel --multi: %s needs a file name\n", argv[a]);
+          return 2;
+        }
+        (argv[a][2] == 'c' ? mc.checkpoint : mc.resume) = argv[a + 1];
+        ++a;
+      } else if (!std::strcmp(argv[a], "--every") || !std::strcmp(argv[a], "--stop-after")) {
+        if (a + 1 >= argc) {
+          std::fprintf(stderr, "channel --multi: %s needs a time in wall seconds\n", argv[a]);
+          return 2;
+        }
+        const bool every = argv[a][2] == 'e';
+        if (!number(argv[a], argv[a + 1], every ? mc.checkpoint_interval : mc.stop_after)) return 2;
+        ++a;
       } else if (!std::strcmp(argv[a], "--graded")) {  // start at the target diameter (with --refine)
         mc.graded_start = true;
       } else if (!std::strcmp(argv[a], "--refine")) {
@@ -224,7 +242,8 @@ int run(int argc, char** argv) {
         if (!number("t_end", argv[a], mc.t_end)) return 2;
         ++positional;
       } else {
-        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] [--progress S] (unexpected '%s')\n",
+        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] "
+                     "[--progress S] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] (unexpected '%s')\n",
                      argv[a]);
         return 2;
       }
@@ -249,6 +268,16 @@ int run(int argc, char** argv) {
                 mc.params.copy_row == mpskit::scheme::copy_row_kind::neumann_points ? ", Neumann-point walls" : "",
                 static_cast<long long>(r.particles), r.steps, r.wall_seconds,
                 static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), mc.t_end);
+    if (r.resumed_at >= 0.0) std::printf("  resumed from '%s' at t = %.6f s\n", mc.resume.c_str(), r.resumed_at);
+    if (!r.finished) {
+      std::printf("  stopped after %.0f s of this process at t = %.6f s (of %.2f s); continue with --resume %s\n",
+                  mc.stop_after, r.t_reached, mc.t_end, mc.checkpoint.c_str());
+      std::printf("  so far: inflow %ld, outflow %ld, p in [%.0f, %.0f] Pa, max |u| %.3f m/s, guarded %ld, particles %lld, "
+                  "splits %ld, merges %ld\n",
+                  r.inflow, r.outflow, r.p_min, r.p_max, r.u_max, r.guarded, static_cast<long long>(r.particles_end),
+                  r.splits, r.merges);
+      return 0;
+    }
     std::printf("  volume balance over the last %.2f s: |Q_in - Q_out - dV/dt| / Q_in = %.4f (Q_in %.3e m^2/s)\n",
                 mc.window, r.balance, r.q_in);
     std::printf("  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s (last %.2f s: "

@@ -1,5 +1,6 @@
 // Channel flows (issue #8): periodic Poiseuille between polygon walls (label poiseuille) and periodic
-// unit tests (label periodic).
+// unit tests (label periodic); checkpoint and restart of the LSMPS scheme on the multi-resolution multi-diameter
+// channel (label restart: split/merge, pressure faces and walls in one scene).
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -11,7 +12,17 @@
 #include "cases/pipe.hpp"
 #include "cases/poiseuille.hpp"
 #include "cases/taylor_green.hpp"
+#include "mpskit/io/lsmps_checkpoint.hpp"
+#include "mpskit/io/simulation_checkpoint.hpp"
 #include "mpskit/resolution/split_merge.hpp"
+#include "support/support.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
 
 using namespace mpskit;
 
@@ -802,5 +813,205 @@ TEST_SUITE("poiseuille_multires") {
     // The issue's 3D tolerance against the start-up series (the pipe's 3 %); measured 0.73 % (single resolution
     // with the uniform faces: 1.59 % at Δt = 1.58e-4 s, the refined run's is 1.25e-4 s).
     CHECK(r.max_error <= 0.03);
+  }
+}
+
+namespace {
+using md_sim = simulation<cases::multi_diameter_multires_scene>;
+
+/// The 2:1 multi-diameter channel at L = 2 mm (coarse: these tests are about restart), its faces' spacing and
+/// target as in the multi_diameter_channel_multires label. ILUT factors are not kept across solves
+/// (ilut_reuse = 1): a lagged factorisation is not saved, so only then is a restart bitwise (docs/run.md).
+cases::multi_diameter_config restart_channel() {
+  cases::multi_diameter_config c;
+  c.L = 2e-3;
+  cases::refine_narrow_section(c, 0.5 * c.L);
+  c.params.solver.ilut_reuse = 1;
+  return c;
+}
+
+template <class A>
+bool same_bits(const A& a, const A& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+/// Every counter of the two runs equal.
+void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_counters& b) {
+  const auto v = [](const scheme::lsmps_counters& c) {
+    return std::vector<long>{c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries,
+                             c.pinned_components, c.isolated, c.copies, c.small_diameter_events, c.guarded,
+                             c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
+                             c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
+                             c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind};
+  };
+  CHECK(v(a) == v(b));
+  CHECK(std::bit_cast<std::uint64_t>(a.inflow_volume) == std::bit_cast<std::uint64_t>(b.inflow_volume));
+  CHECK(std::bit_cast<std::uint64_t>(a.outflow_volume) == std::bit_cast<std::uint64_t>(b.outflow_volume));
+}
+}  // namespace
+
+TEST_SUITE("restart") {
+  TEST_CASE("restart: LSMPS multi-resolution channel, 60 steps + save + 60 equals load + 60 bitwise") {
+    // The scene has everything a checkpoint must carry: split/merge (ledger totals, volumes), pressure faces
+    // (inflow/outflow counters and volumes, new ids) and walls (copies are ghosts: not saved, made anew). Step 60
+    // is not a multiple of reorder_every (25): the list is built from the state at every step start.
+    mpskit::test::scratch tmp("mpskit_test_channel", "restart");
+    const auto c = restart_channel();
+    cases::multi_diameter_setup su = cases::make_multi_diameter(c);
+    const auto initial = su.initial;
+    md_sim a(su.params, initial, &su.walls, &*su.boundary);
+    for (int k = 0; k < 60; ++k) a.step();
+    REQUIRE(60 % su.params.reorder_every != 0);
+    const long splits_before = a.counters().splits;
+    const long boundary_before = a.counters().inflow + a.counters().outflow;
+    io::checkpoint_sections mine;
+    mine.add("case.note", 42.0);
+    io::save_simulation(tmp / "c.mpscp", a, mine);
+    for (int k = 0; k < 60; ++k) a.step();
+
+    md_sim b(su.params, initial, &su.walls, &*su.boundary);
+    io::checkpoint_sections back;
+    io::load_simulation(tmp / "c.mpscp", b, &back);
+    CHECK(back.get_double("case.note") == 42.0);  // the caller's own sections come back
+    CHECK(b.counters().steps == 60);
+    CHECK(b.time() > 0.0);
+    for (int k = 0; k < 60; ++k) b.step();
+
+    // The run exercised what the checkpoint carries, before and after it (measured: splits at the start,
+    // inflow and outflow from the first steps).
+    CHECK(splits_before > 0);
+    CHECK(a.counters().inflow + a.counters().outflow > boundary_before);
+    const auto& sa = a.state();
+    const auto& sb = b.state();
+    REQUIRE(sa.n_real() == sb.n_real());
+    const index_t n = sa.n_real();
+    CHECK(same_bits(Eigen::MatrixXd(sa.x().leftCols(n)), Eigen::MatrixXd(sb.x().leftCols(n))));
+    CHECK(same_bits(Eigen::MatrixXd(sa.u().leftCols(n)), Eigen::MatrixXd(sb.u().leftCols(n))));
+    CHECK(same_bits(Eigen::VectorXd(sa.get<field::pressure>().head(n)), Eigen::VectorXd(sb.get<field::pressure>().head(n))));
+    CHECK(same_bits(Eigen::VectorXd(sa.get<field::volume>().head(n)), Eigen::VectorXd(sb.get<field::volume>().head(n))));
+    CHECK(std::equal(sa.ids().begin(), sa.ids().begin() + n, sb.ids().begin()));
+    CHECK(std::equal(sa.flags().begin(), sa.flags().begin() + n, sb.flags().begin()));
+    CHECK(sa.next_id() == sb.next_id());
+    CHECK(std::bit_cast<std::uint64_t>(a.time()) == std::bit_cast<std::uint64_t>(b.time()));
+    CHECK(std::bit_cast<std::uint64_t>(a.dt()) == std::bit_cast<std::uint64_t>(b.dt()));
+    check_same_counters(a.counters(), b.counters());
+    const auto& ta = a.time_step().state();
+    const auto& tb = b.time_step().state();
+    CHECK(ta.halvings == tb.halvings);
+    CHECK(ta.held == tb.held);
+    CHECK(ta.changes == tb.changes);
+    const auto& la = a.ledger().totals();
+    const auto& lb = b.ledger().totals();
+    CHECK(a.ledger().steps() == b.ledger().steps());
+    CHECK(la.splits == lb.splits);
+    CHECK(la.merges == lb.merges);
+    CHECK(std::bit_cast<std::uint64_t>(la.dV) == std::bit_cast<std::uint64_t>(lb.dV));
+    CHECK(std::bit_cast<std::uint64_t>(la.dKE) == std::bit_cast<std::uint64_t>(lb.dKE));
+    CHECK(same_bits(la.dVu, lb.dVu));
+    CHECK(same_bits(la.dL, lb.dL));
+    REQUIRE(la.fluxes.size() == lb.fluxes.size());
+    CHECK(!la.fluxes.empty());
+    for (std::size_t f = 0; f < la.fluxes.size(); ++f) {
+      CHECK(la.fluxes[f].name == lb.fluxes[f].name);
+      CHECK(std::bit_cast<std::uint64_t>(la.fluxes[f].volume) == std::bit_cast<std::uint64_t>(lb.fluxes[f].volume));
+      CHECK(same_bits(la.fluxes[f].momentum, lb.fluxes[f].momentum));
+      CHECK(la.fluxes[f].particles == lb.fluxes[f].particles);
+    }
+  }
+
+  TEST_CASE("restart: the channel case stopped and resumed gives the uninterrupted run's numbers bitwise") {
+    // cases::run_multi_diameter in two processes' worth of pieces: stopped after its first step (stop_after
+    // 1e-9 wall seconds), written with its running measurements, resumed to the end. Every number of the result
+    // equals the straight run's (window 0.01 s of 0.03 s: the resume starts before the window, so the window's
+    // sums are all made after it).
+    mpskit::test::scratch tmp("mpskit_test_channel", "resume");
+    auto c = restart_channel();
+    c.t_end = 0.03;
+    c.window = 0.01;
+    const auto straight = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(c);
+    auto first = c;
+    first.checkpoint = (tmp / "case.mpscp").string();
+    first.stop_after = 1e-9;
+    const auto part = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(first);
+    CHECK_FALSE(part.finished);
+    CHECK(part.steps == 1);
+    CHECK(std::isnan(part.balance));
+    auto second = c;
+    second.resume = first.checkpoint;
+    const auto r = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(second);
+    CHECK(r.finished);
+    CHECK(r.resumed_at == part.t_reached);
+    const auto same = [](double x, double y) { return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y); };
+    CHECK(same(r.balance, straight.balance));
+    CHECK(same(r.q_in, straight.q_in));
+    CHECK(same(r.q_out, straight.q_out));
+    CHECK(same(r.dvdt, straight.dvdt));
+    CHECK(same(r.p_min, straight.p_min));
+    CHECK(same(r.p_max, straight.p_max));
+    CHECK(same(r.u_max, straight.u_max));
+    CHECK(same(r.u_max_window, straight.u_max_window));
+    CHECK(same(r.ledger_error, straight.ledger_error));
+    CHECK(r.steps == straight.steps);
+    CHECK(r.particles == straight.particles);
+    CHECK(r.particles_end == straight.particles_end);
+    CHECK(r.splits == straight.splits);
+    CHECK(r.inflow == straight.inflow);
+    CHECK(r.outflow == straight.outflow);
+    // Another L or t_end than the file's is refused.
+    auto other = second;
+    other.t_end = 0.04;
+    CHECK_THROWS_WITH_AS(cases::run_multi_diameter<cases::multi_diameter_multires_scene>(other),
+                         doctest::Contains("was written with"), mpskit::error);
+  }
+
+  TEST_CASE("restart: LSMPS loads refuse stepped targets, foreign files, missing sections and bad values") {
+    mpskit::test::scratch tmp("mpskit_test_channel", "refuse");
+    const auto c = restart_channel();
+    cases::multi_diameter_setup su = cases::make_multi_diameter(c);
+    md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
+    a.step();
+    io::save_simulation(tmp / "c.mpscp", a);
+    // A stepped target.
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", a), doctest::Contains("already stepped"), mpskit::error);
+    md_sim fresh(su.params, su.initial, &su.walls, &*su.boundary);
+    // The particles alone (no sections).
+    io::save_checkpoint(tmp / "plain.mpscp", su.initial);
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", fresh), doctest::Contains("no section 'lsmps.time'"),
+                         mpskit::error);
+    // A classic scheme's checkpoint: other fields.
+    {
+      simulation<defaults<2>>::state_type classic(4);
+      for (index_t i = 0; i < 4; ++i) classic.x().col(i) = vec<2>(0.01 * i, 0.0);
+      io::save_checkpoint(tmp / "classic.mpscp", classic);
+      CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "classic.mpscp", fresh), doctest::Contains("classic.mpscp"),
+                           mpskit::error);
+    }
+    // Reserved section names in the caller's sections.
+    io::checkpoint_sections bad;
+    bad.add("lsmps.mine", 1.0);
+    CHECK_THROWS_WITH_AS(io::save_simulation(tmp / "r.mpscp", a, bad), doctest::Contains("reserved"), mpskit::error);
+    // restore() itself: negative counters, a rung off the ladder, a bad time, ghosts, a non-fluid particle.
+    scheme::lsmps_counters k;
+    k.splits = -1;
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, k, {}, {}, 0), doctest::Contains("counter is negative"),
+                         mpskit::error);
+    scheme::time_step_state ts;
+    ts.halvings = fresh.time_step().max_rungs() + 1;
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, {}, ts, {}, 0), doctest::Contains("out of range"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, -1.0, 1e-3, {}, {}, {}, 0), doctest::Contains("finite and >= 0"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, {}, {}, {}, -3), doctest::Contains("negative count"),
+                         mpskit::error);
+    auto wall = su.initial;
+    wall.kinds()[0] = kind::wall;
+    CHECK_THROWS_WITH_AS(fresh.restore(wall, 0.1, 1e-3, {}, {}, {}, 0), doctest::Contains("fluid particles only"),
+                         mpskit::error);
+    // Nothing above changed `fresh`: it loads the good file.
+    CHECK(fresh.time() == 0.0);
+    io::load_simulation(tmp / "c.mpscp", fresh);
+    CHECK(fresh.time() == a.time());
+    CHECK(fresh.counters().steps == 1);
   }
 }

@@ -9,11 +9,14 @@
 #include <cmath>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "cases/run_measures.hpp"
 #include "mpskit/boundary/pressure.hpp"
+#include "mpskit/io/lsmps_checkpoint.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/resolution/graded_lattice.hpp"
 #include "mpskit/resolution/split_merge.hpp"
@@ -46,6 +49,13 @@ struct multi_diameter_config {
   bool graded_start = false;
   /// > 0: a progress row (io::progress_sink) on stderr at most every that many wall seconds (long runs).
   double progress_interval = 0.0;
+  /// Long runs in pieces (io/lsmps_checkpoint.hpp): with `checkpoint` set, the run is written there (particles,
+  /// the scheme's state and the running measurements below) every `checkpoint_interval` wall seconds (> 0) and
+  /// when it stops; `resume` names such a file to continue from (the same config: L, t_end and window are
+  /// checked, the rest is the caller's to keep). `stop_after` > 0 ends the run after that many wall seconds of
+  /// this process, checkpoint written, result partial (`finished` false).
+  std::string checkpoint, resume;
+  double checkpoint_interval = 0.0, stop_after = 0.0;
   /// The pressure boundary's numbers: Table 1 except α_o = 0.5 (ours; docs/channel.md), with the default
   /// face-distance outflow rule: with α_o = 0.25 the L = 1 mm run failed at t = 0.30 s (pressure spikes beside
   /// the outlet and the convex taper corners).
@@ -70,6 +80,9 @@ struct multi_diameter_result {
   double p_min_t = 0.0, p_max_t = 0.0;                          ///< and when (s)
   double u_max = 0.0;               ///< max |u| over the run (m/s)
   double u_max_window = 0.0;        ///< max |u| over the averaging window (m/s)
+  bool finished = true;             ///< false: stopped at stop_after before t_end (the numbers are partial)
+  double t_reached = 0.0;           ///< simulated time at the end of this process (s)
+  double resumed_at = -1.0;         ///< simulated time the run was resumed from (s; < 0: not resumed)
 };
 
 /// The case's scene with splitting and merging (Scene::resolution; run it with refine_narrow_section).
@@ -115,18 +128,25 @@ inline geometry::polygon_mesh<2> multi_diameter_walls(const multi_diameter_confi
   return m;
 }
 
-template <class Scene = multi_diameter_scene>
-multi_diameter_result run_multi_diameter(multi_diameter_config c) {
-  if (!(c.L > 0.0) || !(c.window > 0.0) || !(c.t_end > c.window))
-    fail("run_multi_diameter: need L > 0 and t_end > window > 0 (the balance is averaged over the last `window` ",
-         "seconds); got L = ", c.L, ", t_end = ", c.t_end, ", window = ", c.window);
+/// What a multi-diameter channel run starts from: the scheme's numbers, the walls, the pressure faces and the
+/// initial particles. The walls and faces must outlive a simulation built on them (it keeps pointers).
+struct multi_diameter_setup {
+  scheme::lsmps_params<2> params;
+  geometry::polygon_set<2> walls;
+  std::optional<boundary::pressure_boundary<2>> boundary;
+  scheme::lsmps_state<2> initial;
+};
+
+/// Builds the case's set-up from c (the L lattice, or the graded one with c.graded_start).
+inline multi_diameter_setup make_multi_diameter(const multi_diameter_config& c) {
   const double a = 0.5 * c.wide, b = 0.5 * c.narrow, s = c.section, ell = 3 * s, L = c.L;
-  auto p = c.params;
+  multi_diameter_setup out{c.params, geometry::polygon_set<2>(multi_diameter_walls(c)), std::nullopt, {}};
+  auto& p = out.params;
   p.rho = c.rho;
   p.nu = c.mu / c.rho;
   p.g.setZero();
   p.time.dt_max = 1e-3;  // adaptive, piecewise constant (Courant α_C = 0.1)
-  const geometry::polygon_set<2> walls(multi_diameter_walls(c));
+  const geometry::polygon_set<2>& walls = out.walls;
   geometry::polygon_mesh<2> fm;
   fm.vertices.resize(2, 4);
   fm.vertices.col(0) = vec<2>(0.0, a);
@@ -137,8 +157,8 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   fm.elements.col(0) << 0, 1;
   fm.elements.col(1) << 2, 3;
   const auto spacing = [&](const vec<2>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
-  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_in, c.p_out}, spacing,
-                                          c.boundary);
+  out.boundary.emplace(geometry::polygon_set<2>(std::move(fm)), std::vector<double>{c.p_in, c.p_out}, spacing,
+                       c.boundary);
   // The L lattice on x in (0, ell), y = (j + ½) L from j = −⌈a/L⌉, kept at ≥ L/2 from the walls; or that lattice
   // graded to the target diameter (resolution::graded_lattice; a particle of diameter h kept at ≥ h/2).
   const auto keep = [&](const vec<2>& x, double h) { return walls.signed_distance(x) >= 0.5 * h * (1.0 - 1e-12); };
@@ -161,49 +181,134 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
       }
     vol.assign(pts.size(), L * L);
   }
-  scheme::lsmps_state<2> s0(static_cast<index_t>(pts.size()));
+  scheme::lsmps_state<2>& s0 = out.initial;
+  s0 = scheme::lsmps_state<2>(static_cast<index_t>(pts.size()));
   for (std::size_t q = 0; q < pts.size(); ++q) {
     s0.x().col(static_cast<index_t>(q)) = pts[q];
     s0.get<field::volume>()[static_cast<index_t>(q)] = vol[q];
   }
-  simulation<Scene> sim(p, std::move(s0), &walls, &pb);
+  return out;
+}
+
+template <class Scene = multi_diameter_scene>
+multi_diameter_result run_multi_diameter(multi_diameter_config c) {
+  if (!(c.L > 0.0) || !(c.window > 0.0) || !(c.t_end > c.window))
+    fail("run_multi_diameter: need L > 0 and t_end > window > 0 (the balance is averaged over the last `window` ",
+         "seconds); got L = ", c.L, ", t_end = ", c.t_end, ", window = ", c.window);
+  if (c.checkpoint.empty() && (c.checkpoint_interval != 0.0 || c.stop_after != 0.0))
+    fail("run_multi_diameter: checkpoint_interval and stop_after need a checkpoint file");
+  if (!(c.checkpoint_interval >= 0.0) || !(c.stop_after >= 0.0))
+    fail("run_multi_diameter: checkpoint_interval (", c.checkpoint_interval, " s) and stop_after (", c.stop_after,
+         " s) must be >= 0");
+  const double ell = 3 * c.section, L = c.L;
+  multi_diameter_setup su = make_multi_diameter(c);
+  simulation<Scene> sim(su.params, std::move(su.initial), &su.walls, &*su.boundary);
   multi_diameter_result r;
   r.particles = sim.state().n_real();
   const auto volume = [&] { return fluid_volume(sim.state()); };
   const auto flux = [&](double x0) { return slab_flux(sim.state(), x0, L); };
-  const double V0 = volume();
-  double qin = 0.0, qout = 0.0, v_begin = 0.0, t_begin = 0.0;
+  double V0 = volume();
+  double qin = 0.0, qout = 0.0, v_begin = 0.0, t_begin = 0.0, wall_before = 0.0;
   long samples = 0;
-  const auto t0 = std::chrono::steady_clock::now();
   r.p_min = 1e300;
   r.p_max = -1e300;
   bool in_window = false;  // the averaging window: |u| also goes to u_max_window
+  // The running measurements, saved beside the simulation in a checkpoint (section "multi_diameter.measures").
+  const auto measures = [&](double wall_total) {
+    return std::vector<double>{L, c.t_end, c.window, V0, qin, qout, static_cast<double>(samples), v_begin, t_begin,
+                               in_window ? 1.0 : 0.0, r.p_min, r.p_max, r.p_min_at[0], r.p_min_at[1], r.p_max_at[0],
+                               r.p_max_at[1], r.p_min_t, r.p_max_t, r.u_max, r.u_max_window,
+                               static_cast<double>(r.particles), wall_total};
+  };
+  if (!c.resume.empty()) {
+    io::checkpoint_sections sec;
+    io::load_simulation(c.resume, sim, &sec);
+    const std::vector<double> m = sec.get_doubles("multi_diameter.measures");
+    if (m.size() != measures(0.0).size())
+      fail("run_multi_diameter: '", c.resume, "': section 'multi_diameter.measures' holds ", m.size(), " values");
+    if (m[0] != L || m[1] != c.t_end || m[2] != c.window)
+      fail("run_multi_diameter: '", c.resume, "' was written with L = ", m[0], " m, t_end = ", m[1], " s, window = ", m[2],
+           " s; this run has ", L, ", ", c.t_end, ", ", c.window);
+    std::size_t k = 3;
+    V0 = m[k++];
+    qin = m[k++];
+    qout = m[k++];
+    samples = static_cast<long>(m[k++]);
+    v_begin = m[k++];
+    t_begin = m[k++];
+    in_window = m[k++] != 0.0;
+    r.p_min = m[k++];
+    r.p_max = m[k++];
+    r.p_min_at = vec<2>(m[k], m[k + 1]);
+    r.p_max_at = vec<2>(m[k + 2], m[k + 3]);
+    k += 4;
+    r.p_min_t = m[k++];
+    r.p_max_t = m[k++];
+    r.u_max = m[k++];
+    r.u_max_window = m[k++];
+    r.particles = static_cast<index_t>(m[k++]);
+    wall_before = m[k++];
+    r.resumed_at = sim.time();
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  double last_save = 0.0;
+  const auto save = [&] {
+    io::checkpoint_sections sec;
+    sec.add_doubles("multi_diameter.measures", measures(wall_before + wall()));
+    io::save_simulation(c.checkpoint, sim, std::move(sec));
+    last_save = wall();
+  };
+  struct stopped {};
   std::optional<io::progress_sink> progress;
   if (c.progress_interval > 0.0) progress.emplace(std::cerr, c.progress_interval, io::progress_mode::plain);
   const auto extremes = [&](const auto&) {
     track_extremes(r, sim.state(), sim.time(), in_window);
     if (progress)
       progress->update({sim.time(), c.t_end, sim.counters().steps, sim.dt(), sim.last_solve().iterations,
-                        sim.state().n_real(),
-                        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()});
+                        sim.state().n_real(), wall_before + wall()});
   };
-  sim.run_until(c.t_end - c.window, extremes);
-  v_begin = volume();
-  t_begin = sim.time();
-  in_window = true;
-  sim.run_until(c.t_end, [&](const auto& sm) {
-    extremes(sm);
-    qin += flux(3.0 * L);
-    qout += flux(ell - 3.0 * L);
-    ++samples;
-  });
-  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto pause = [&] {  // after a step's measurements: checkpoint, and stop when asked
+    if (c.checkpoint.empty()) return;
+    if (c.checkpoint_interval > 0.0 && wall() - last_save >= c.checkpoint_interval) save();
+    if (c.stop_after > 0.0 && wall() >= c.stop_after && sim.time() < c.t_end) {
+      save();
+      throw stopped{};
+    }
+  };
+  try {
+    if (!in_window) {
+      sim.run_until(c.t_end - c.window, [&](const auto& sm) {
+        extremes(sm);
+        pause();
+      });
+      v_begin = volume();
+      t_begin = sim.time();
+      in_window = true;
+    }
+    sim.run_until(c.t_end, [&](const auto& sm) {
+      extremes(sm);
+      qin += flux(3.0 * L);
+      qout += flux(ell - 3.0 * L);
+      ++samples;
+      pause();
+    });
+  } catch (const stopped&) {
+    r.finished = false;
+  }
+  if (!c.checkpoint.empty() && r.finished) save();
+  r.t_reached = sim.time();
+  r.wall_seconds = wall_before + wall();
+  const auto& k = sim.counters();
+  record_channel_end(r, k, sim.state(), V0);
+  if (!r.finished) {  // stopped early: no window averages
+    r.balance = r.q_in = r.q_out = r.dvdt = std::numeric_limits<double>::quiet_NaN();
+    return r;
+  }
   r.q_in = qin / std::max(1L, samples);
   r.q_out = qout / std::max(1L, samples);
   r.dvdt = (volume() - v_begin) / (sim.time() - t_begin);
   r.balance = std::abs(r.q_in - r.q_out - r.dvdt) / std::abs(r.q_in);
-  const auto& k = sim.counters();
-  record_channel_end(r, k, sim.state(), V0);
   return r;
 }
 

@@ -14,8 +14,11 @@
 /// particle state at every step start, so a restart is bitwise identical to the uninterrupted run at any
 /// step (tested at step 113, not a multiple of reorder_every).
 #include <cmath>
+#include <concepts>
 #include <cstdint>
 #include <filesystem>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "mpskit/core/error.hpp"
@@ -25,8 +28,14 @@
 
 namespace mpskit::io {
 
-/// The sections that hold a simulation's non-particle state (time, l0, counters, Δt controller).
+/// A classic-scheme simulation (scheme::semi_implicit); the LSMPS scheme has its own overloads in
+/// io/lsmps_checkpoint.hpp.
 template <class Sim>
+concept classic_simulation =
+    std::same_as<std::remove_cvref_t<decltype(std::declval<const Sim&>().counters())>, scheme::semi_implicit_counters>;
+
+/// The sections that hold a simulation's non-particle state (time, l0, counters, Δt controller).
+template <classic_simulation Sim>
 checkpoint_sections simulation_sections(const Sim& sim) {
   checkpoint_sections s;
   s.add("semi_implicit.time", sim.time());
@@ -40,7 +49,7 @@ checkpoint_sections simulation_sections(const Sim& sim) {
 }
 
 /// Writes the simulation's particles and sections to `path` (atomically; see io::save_checkpoint).
-template <class Sim>
+template <classic_simulation Sim>
 void save_simulation(const std::filesystem::path& path, const Sim& sim) {
   save_checkpoint(path, sim.state(), simulation_sections(sim));
 }
@@ -50,7 +59,7 @@ void save_simulation(const std::filesystem::path& path, const Sim& sim) {
 /// list of other particles). Refuses, with an mpskit::error naming the file: everything load_checkpoint
 /// refuses, a missing or malformed section, another l0, ghosts, a stepped target. On error `sim` is
 /// left untouched.
-template <class Sim>
+template <classic_simulation Sim>
 void load_simulation(const std::filesystem::path& path, Sim& sim) {
   const std::string file = path.string();
   if (sim.neighbours().rows() != 0)

@@ -348,16 +348,44 @@ class lsmps_semi_implicit {
       if (walls_) fail("lsmps_semi_implicit: walls given to a scene without wall::imaginary");
     }
     if constexpr (has_resolution && has_pressure_boundary) check_boundary_spacing();
-    if (s_.n_ghost() != 0) fail("lsmps_semi_implicit: the initial state has ghosts");
-    s_.validate();
-    const auto& V = s_.template get<field::volume>();
-    for (index_t i = 0; i < s_.n_real(); ++i) {
-      if (!(std::isfinite(V[i]) && V[i] > 0.0))
-        fail("lsmps_semi_implicit: particle ", i, " has volume ", V[i], ": must be finite and > 0 (V = L^D)");
-      if (kind_of(i) != kind::fluid)
-        fail("lsmps_semi_implicit: particle ", i, " is ", name(kind_of(i)),
-             ": this scheme takes fluid particles only (walls are polygons)");
-    }
+    check_particles(s_, "the initial state");
+  }
+
+  /// \brief Restores a checkpoint (io::load_simulation, io/lsmps_checkpoint.hpp): the real particles, the
+  /// simulated time, the last step's Δt, the counters, the Δt controller and the split/merge ledger's totals.
+  /// Refuses (mpskit::error) a stepper that has already stepped (its neighbour list, operators and lagged
+  /// factorisation would describe other particles), a state the constructor would refuse (ghosts, kinds
+  /// other than fluid, volumes not finite and > 0), a time or Δt not finite and ≥ 0, negative counters and a
+  /// Δt rung outside the controller's ladder. On error *this is unchanged.
+  void restore(state_type s, double t, double dt, const lsmps_counters& c, const time_step_state& ts,
+               const resolution::ledger_step<D>& ledger_totals, long ledger_steps) {
+    if (nl_.rows() != 0)
+      fail("lsmps_semi_implicit::restore: the stepper has already stepped (restore into a new one)");
+    check_particles(s, "the restored state");
+    if (!(std::isfinite(t) && t >= 0.0) || !(std::isfinite(dt) && dt >= 0.0))
+      fail("lsmps_semi_implicit::restore: time ", t, " s and dt ", dt, " s must be finite and >= 0");
+    const long counts[] = {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries,
+                           c.pinned_components, c.isolated, c.copies, c.small_diameter_events, c.guarded,
+                           c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
+                           c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
+                           c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind};
+    for (long v : counts)
+      if (v < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", v, ")");
+    if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
+          c.outflow_volume >= 0.0))
+      fail("lsmps_semi_implicit::restore: boundary volumes ", c.inflow_volume, ", ", c.outflow_volume,
+           " must be finite and >= 0");
+    if (ts.halvings < 0 || ts.halvings > dt_ctrl_.max_rungs() || ts.held < 0 || ts.changes < 0)
+      fail("lsmps_semi_implicit::restore: time-step state {", ts.halvings, ", ", ts.held, ", ", ts.changes,
+           "} out of range (rungs in [0, ", dt_ctrl_.max_rungs(), "], counts >= 0)");
+    resolution::conservation_ledger<D> ledger = ledger_;
+    ledger.restore(ledger_totals, ledger_steps);  // validates; throws before anything is changed
+    s_ = std::move(s);
+    t_ = t;
+    dt_ = dt;
+    c_ = c;
+    dt_ctrl_.restore(ts);
+    ledger_ = std::move(ledger);
   }
 
   const state_type& state() const { return s_; }          ///< particles (real + this step's copies)
@@ -1278,6 +1306,21 @@ class lsmps_semi_implicit {
     c_.splits += static_cast<long>(last_resolution_.splits);
     c_.merges += static_cast<long>(last_resolution_.merges);
     sizes_from_volumes();
+  }
+
+  /// The constructor's and restore()'s checks of the particles (no ghosts, fluid only, volumes finite > 0).
+  static void check_particles(const state_type& s, const char* what) {
+    if (s.n_ghost() != 0) fail("lsmps_semi_implicit: ", what, " has ghosts");
+    s.validate();
+    const auto& V = s.template get<field::volume>();
+    for (index_t i = 0; i < s.n_real(); ++i) {
+      if (!(std::isfinite(V[i]) && V[i] > 0.0))
+        fail("lsmps_semi_implicit: ", what, ": particle ", i, " has volume ", V[i], ": must be finite and > 0 (V = L^D)");
+      const kind k = s.kinds()[static_cast<std::size_t>(i)];
+      if (k != kind::fluid)
+        fail("lsmps_semi_implicit: ", what, ": particle ", i, " is ", name(k),
+             ": this scheme takes fluid particles only (walls are polygons)");
+    }
   }
 
   void check_finite() const {
