@@ -225,6 +225,16 @@ TEST_SUITE("core") {
     }
   }
 
+  TEST_CASE("scheme: the Δt limit takes the Courant pair and the viscous spacing apart (eq. 64 per particle)") {
+    scheme::time_step_params p;  // α_C = α_ν = 0.1, dt_max = 1e-3 s
+    const scheme::time_step_controller c(p);
+    // Courant of the limiting particle (L 2 mm, 1 m/s): 2e-4 s; viscous at the smallest L (1 mm): 0.1 L²/ν.
+    CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-6) == doctest::Approx(2e-4).epsilon(1e-15));
+    CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-3) == doctest::Approx(1e-4).epsilon(1e-15));  // not 0.1 (2 mm)²/ν = 4e-4
+    CHECK(c.limit(1e-3, 1.0, 1e-6) == c.limit(1e-3, 1.0, 1e-3, 1e-6));            // one spacing: the old form
+    CHECK(c.limit(2e-3, 0.0, 1e-3, 0.0) == p.dt_max);                             // at rest, inviscid
+  }
+
   TEST_CASE("scheme: the Δt ladder collapses at dt_max / 2^max_halvings whatever its ratio") {
     for (const double r : {2.0, std::pow(2.0, 0.25), 1.05}) {
       CAPTURE(r);

@@ -404,6 +404,42 @@ TEST_SUITE("det_f") {
     CHECK(solved);
   }
 
+  TEST_CASE("time step: Courant per particle (Tanaka eq. 64), min_i L_i/|u_i|, not min L / max |u|") {
+    // Two 6 × 6 blobs far apart in free space (no walls, no surface test, g = 0): fine (L = 1 mm) at rest and
+    // coarse (L = 2 mm) moving at 1 m/s. Eq. 64 limits Δt by the coarse blob, α_C 2 mm / (1 m/s) = 2e-4 s, so the
+    // ladder 1e-3 / 2^k gives 1.25e-4 s; the global rule α_C (1 mm) / (1 m/s) = 1e-4 s gives 6.25e-5 s. With one
+    // diameter the two rules are the same (the fine blob moving too: both 6.25e-5 s).
+    struct blobs : lsmps_defaults<2> {
+      using walls = scheme::no_walls;
+      using surface = scheme::no_surface;
+    };
+    const auto dt_of = [](bool per_particle, double u_fine) {
+      const int N = 6;
+      scheme::lsmps_state<2> s0(2 * N * N);
+      auto& V = s0.template get<field::volume>();
+      for (int a = 0; a < N; ++a)
+        for (int b = 0; b < N; ++b) {
+          const index_t f = a * N + b, c = N * N + f;
+          s0.x().col(f) << (a + 0.5) * 1e-3, (b + 0.5) * 1e-3;
+          s0.x().col(c) << 0.1 + (a + 0.5) * 2e-3, (b + 0.5) * 2e-3;
+          s0.u().col(f) << u_fine, 0.0;
+          s0.u().col(c) << 1.0, 0.0;
+          V[f] = 1e-6;
+          V[c] = 4e-6;
+        }
+      scheme::lsmps_params<2> p;
+      p.g.setZero();
+      p.time.per_particle_courant = per_particle;
+      simulation<blobs> sim(p, std::move(s0));
+      sim.step();
+      return sim.dt();
+    };
+    CHECK(dt_of(true, 0.0) == 1.25e-4);
+    CHECK(dt_of(false, 0.0) == 6.25e-5);
+    CHECK(dt_of(true, 1.0) == 6.25e-5);
+    CHECK(dt_of(false, 1.0) == 6.25e-5);
+  }
+
   TEST_CASE("PPE active set (active_set_solves): p >= 0 where the plain solve pulls, unchanged where it pushes") {
     // A 12 × 12 lattice blob in free space (surface test on, no walls, g = 0) with u = a (x − x_c): expanding
     // (a > 0) the det F source is positive and the plain solve gives negative pressures inside; with the

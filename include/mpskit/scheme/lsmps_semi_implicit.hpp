@@ -418,19 +418,31 @@ class lsmps_semi_implicit {
   void step() {
     s_.clear_ghosts();
     const index_t n = s_.n_real();
-    // 1. Δt: Courant on min L / max |u| over fluid (single resolution: L is one number).
+    // 1. Δt: Courant α_C min L / max |u| over fluid (a deviation, the default), or eq. 64 as written,
+    //    min_i α_C L_i/|u_i| (time_step_params::per_particle_courant); the same at single resolution. The viscous
+    //    limit at the smallest L.
     double umax = 0.0, lmin = std::numeric_limits<double>::infinity();
-    index_t fastest = npos;
+    double lc = 0.0, uc = 0.0;  // the Courant pair of the limiting particle
+    index_t fastest = npos, limiting = npos;
     const auto& V = s_.template get<field::volume>();
     for (index_t i = 0; i < n; ++i) {
-      lmin = std::min(lmin, diameter_of_volume(V[i]));
+      const double Li = diameter_of_volume(V[i]);
+      lmin = std::min(lmin, Li);
       const double u = s_.u().col(i).norm();
       if (u > umax) {
         umax = u;
         fastest = i;
       }
+      if (u > 0.0 && (limiting == npos || Li * uc < lc * u)) {  // L_i/u_i < lc/uc without dividing
+        lc = Li;
+        uc = u;
+        limiting = i;
+      }
     }
-    dt_ = dt_ctrl_.next(lmin, umax, p_.nu, c_.steps, fastest == npos ? npos : id_of(fastest));
+    if (p_.time.per_particle_courant)
+      dt_ = dt_ctrl_.next(lc, uc, lmin, p_.nu, c_.steps, limiting == npos ? npos : id_of(limiting));
+    else
+      dt_ = dt_ctrl_.next(lmin, umax, p_.nu, c_.steps, fastest == npos ? npos : id_of(fastest));
     const double dt = dt_;
     copies_.clear();
     if (p_.reorder_every > 0 && c_.steps % p_.reorder_every == 0 && n > 0) {
