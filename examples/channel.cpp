@@ -18,6 +18,8 @@
 //            --checkpoint FILE [--every S] [--stop-after S]: write the run (and its running measurements) to FILE
 //            every S wall seconds and at its end; --stop-after S: stop after S wall seconds, checkpoint written
 //            --resume FILE: continue such a run (give the same L, t_end and options; docs/run.md)
+//            --ilut-across: keep the ILUT factors across changes of the unknowns (solver_params::
+//            ilut_reuse_across_changes; 0.79x the wall time at the paper's size, docs/lsmps_scheme.md deviation 7)
 //   --a2:    Tanaka A2 (§5.2): the channel refined at its walls, 0.5/R mm there to 0.5 mm in the centre (R = 4 the
 //            paper's 0.125 -> 0.5 mm; cases::a2_target) from a graded start, then single resolution at 0.5/R mm with
 //            the same Δt; particle counts, wall times, errors against the start-up series. Periodic (5 mm) by default,
@@ -223,6 +225,8 @@ int run(int argc, char** argv) {
         const bool every = argv[a][2] == 'e';
         if (!number(argv[a], argv[a + 1], every ? mc.checkpoint_interval : mc.stop_after)) return 2;
         ++a;
+      } else if (!std::strcmp(argv[a], "--ilut-across")) {  // keep ILUT factors across changes of the unknowns
+        mc.params.solver.ilut_reuse_across_changes = true;
       } else if (!std::strcmp(argv[a], "--graded")) {  // start at the target diameter (with --refine)
         mc.graded_start = true;
       } else if (!std::strcmp(argv[a], "--refine")) {
@@ -243,7 +247,7 @@ int run(int argc, char** argv) {
         ++positional;
       } else {
         std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] "
-                     "[--progress S] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] (unexpected '%s')\n",
+                     "[--progress S] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--ilut-across] (unexpected '%s')\n",
                      argv[a]);
         return 2;
       }

@@ -239,6 +239,80 @@ TEST_SUITE("solver") {
     CHECK(bad == 0);
   }
 
+  TEST_CASE("solver: ILUT factors kept across a change of the unknowns (ilut_reuse_across_changes), by a map") {
+    // The 30 × 30 convection-diffusion matrix of the next case (upwind strength 1), its unknowns renumbered by a
+    // permutation P (A' = P A Pᵀ: the same system, other order). With the map from the new numbering to the old,
+    // the kept factors of A are an exact permutation of the factors A' would get (ILUT drops by row norm and
+    // fill per row: invariant under a symmetric renumbering up to ties), so BiCGSTAB takes the same iterations
+    // (±1 for rounding) and no factorisation. Then a change with 5 % new unknowns (the map gives −1: a Jacobi
+    // step there) is kept and converges to u; one with 20 % new unknowns (above ilut_reuse_unmatched = 10 %) and
+    // a solver without the option factorise.
+    const int g = 30, n = g * g;
+    std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t;
+    const auto id = [g](int i, int j) { return static_cast<std::ptrdiff_t>(i) * g + j; };
+    for (int i = 0; i < g; ++i)
+      for (int j = 0; j < g; ++j) {
+        t.emplace_back(id(i, j), id(i, j), 5.0);
+        if (i > 0) t.emplace_back(id(i, j), id(i - 1, j), -2.0);
+        if (i + 1 < g) t.emplace_back(id(i, j), id(i + 1, j), -1.0);
+        if (j > 0) t.emplace_back(id(i, j), id(i, j - 1), -1.0);
+        if (j + 1 < g) t.emplace_back(id(i, j), id(i, j + 1), -1.0);
+      }
+    ppe::matrix A(n, n);
+    A.setFromTriplets(t.begin(), t.end());
+    Eigen::VectorXd u(n);
+    for (int k = 0; k < n; ++k) u[k] = std::sin(0.37 * k) + 0.01 * k;
+    // new index r holds old unknown perm[r]: a fixed pseudo-random permutation
+    std::vector<index_t> perm(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) perm[static_cast<std::size_t>(k)] = k;
+    for (int k = n - 1; k > 0; --k) std::swap(perm[static_cast<std::size_t>(k)], perm[static_cast<std::size_t>((k * 7919) % (k + 1))]);
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, std::ptrdiff_t> P(n);
+    for (int r = 0; r < n; ++r) P.indices()[perm[static_cast<std::size_t>(r)]] = r;  // old k -> new row
+    const ppe::matrix Ap = P * A * P.transpose();
+    const Eigen::VectorXd up = P * u;
+    ppe::solver_params sp;
+    sp.ilut_reuse_across_changes = true;
+    const auto row = [](index_t) { return std::string("row"); };
+    ppe::bicgstab solver(sp);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+    const auto r0 = ppe::solve_checked(solver, A, Eigen::VectorXd(A * u), x, sp, 0, 0.0, row);
+    Eigen::VectorXd xp = Eigen::VectorXd::Zero(n);
+    const auto r1 = ppe::solve_checked(solver, Ap, Eigen::VectorXd(Ap * up), xp, sp, 1, 0.0, row, false, &perm);
+    CHECK(solver.factorisations() == 1);
+    CHECK(solver.mapped_reuses() == 1);
+    MESSAGE("original: " << r0.iterations << " iterations; renumbered with the mapped factors: " << r1.iterations);
+    CHECK(std::abs(r1.iterations - r0.iterations) <= 1);
+    CHECK((xp - up).norm() <= 1e-5 * up.norm());  // condition ≈ 160: see the next case
+    // 5 % of the unknowns unmatched (as new particles would be): kept, Jacobi on those rows, converged.
+    std::vector<index_t> some = perm;
+    for (int r = 0; r < n; r += 20) some[static_cast<std::size_t>(r)] = -1;
+    Eigen::VectorXd x2 = Eigen::VectorXd::Zero(n);
+    ppe::solve_checked(solver, Ap, Eigen::VectorXd(Ap * up), x2, sp, 2, 0.0, row, false, &some);
+    CHECK(solver.factorisations() == 1);
+    CHECK(solver.mapped_reuses() == 2);
+    CHECK((x2 - up).norm() <= 1e-5 * up.norm());
+    // 20 % unmatched: factorised.
+    std::vector<index_t> many = perm;
+    for (int r = 0; r < n; r += 5) many[static_cast<std::size_t>(r)] = -1;
+    ppe::bicgstab other(sp);
+    Eigen::VectorXd x3 = Eigen::VectorXd::Zero(n);
+    ppe::solve_checked(other, A, Eigen::VectorXd(A * u), x3, sp, 0, 0.0, row);
+    ppe::solve_checked(other, Ap, Eigen::VectorXd(Ap * up), x3, sp, 1, 0.0, row, false, &many);
+    CHECK(other.factorisations() == 2);
+    CHECK(other.mapped_reuses() == 0);
+    // Without the option the map is ignored: factorised.
+    ppe::solver_params off;
+    ppe::bicgstab plain(off);
+    Eigen::VectorXd x4 = Eigen::VectorXd::Zero(n);
+    ppe::solve_checked(plain, A, Eigen::VectorXd(A * u), x4, off, 0, 0.0, row);
+    ppe::solve_checked(plain, Ap, Eigen::VectorXd(Ap * up), x4, off, 1, 0.0, row, false, &perm);
+    CHECK(plain.factorisations() == 2);
+    // Bad input.
+    ppe::solver_params bad;
+    bad.ilut_reuse_unmatched = 1.5;
+    CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("ilut_reuse_unmatched"), mpskit::error);
+  }
+
   TEST_CASE("solver: a lagged ILUT is kept for ilut_reuse solves of the same unknowns, and refactorised on failure") {
     // A non-symmetric convection-diffusion matrix on a 30 × 30 grid (5-point −∇² plus an upwind x-convection of
     // strength s), as the PPE's CSR type; b = A u for a known u, so every accepted solve is checked against u.

@@ -3,6 +3,8 @@
 /// \brief Eigen's iterative solvers behind one API: CG (Jacobi or incomplete Cholesky), BiCGSTAB,
 /// GMRES and IDR(s) from the unsupported module. Each solve starts from the given x (warm start) and
 /// reports iterations and relative residual; non-convergence is returned, not hidden.
+#include <vector>
+
 #include <Eigen/IterativeLinearSolvers>
 #include <unsupported/Eigen/IterativeSolvers>
 
@@ -30,6 +32,13 @@ struct solver_params {
   /// accepted; a lagged solve that fails is repeated once with a fresh factorisation. Ours (a standard
   /// lagged-preconditioner device, not in the papers); docs/lsmps_scheme.md (deviation 7) has the measured trade.
   int ilut_reuse = 4;
+  /// Keep the lagged ILUT factors also when the unknowns changed (splits, merges, inflow, outflow, reordering,
+  /// copies made or dropped), as long as at most `ilut_reuse_unmatched` of the current unknowns have no row in the
+  /// factorised system: the preconditioner then scatters the residual to the factorised system's rows (by particle
+  /// identity, given by the stepper), applies the kept factors and gathers back, with a Jacobi step on the
+  /// unmatched unknowns. Off by default (ours; docs/lsmps_scheme.md deviation 7).
+  bool ilut_reuse_across_changes = false;
+  double ilut_reuse_unmatched = 0.1;  ///< largest fraction of unmatched unknowns for which the factors are kept
   /// Systems of fewer unknowns are solved with Eigen's own threads held to one (its sparse × vector product
   /// would otherwise open a parallel region per product; core/exec.hpp, eigen_threads_scope). The default is
   /// exec::par's threshold: on a 2-core machine it is 2.66× faster with one competing thread and the same when
@@ -42,6 +51,7 @@ struct solver_params {
     v.in_range("restart", double(restart), 1, 1e6).in_range("idrs_s", double(idrs_s), 1, 64);
     v.in_range("ilut_drop_tolerance", ilut_drop_tolerance, 0.0, 1.0).in_range("ilut_fill_factor", ilut_fill_factor, 1, 100);
     v.in_range("ilut_reuse", ilut_reuse, 1, 1000).in_range("parallel_min_rows", double(parallel_min_rows), 0, 1e18);
+    v.in_range("ilut_reuse_unmatched", ilut_reuse_unmatched, 0.0, 1.0);
     v.throw_if_any();
   }
 };
@@ -72,9 +82,28 @@ class lagged_preconditioner {
     if (refactor_) p_.compute(A);
     return *this;
   }
+  /// z = M⁻¹ b: the factors' solve; with a map (kept factors of another unknown set), b scattered to the
+  /// factorised rows (unmatched rows dropped), solved, and gathered back; unmatched unknowns get b_r / a_rr.
   template <class R>
-  auto solve(const R& b) const {
-    return p_.solve(b);
+  Eigen::VectorXd solve(const R& b) const {
+    if (map_.empty()) return p_.solve(b);
+    Eigen::VectorXd bf = Eigen::VectorXd::Zero(factor_rows_);
+    for (std::size_t r = 0; r < map_.size(); ++r)
+      if (map_[r] >= 0) bf[map_[r]] = b[static_cast<Eigen::Index>(r)];
+    const Eigen::VectorXd zf = p_.solve(bf);
+    Eigen::VectorXd z(b.size());
+    for (std::size_t r = 0; r < map_.size(); ++r) {
+      const auto e = static_cast<Eigen::Index>(r);
+      z[e] = map_[r] >= 0 ? zf[map_[r]] : b[e] * inv_diag_[e];
+    }
+    return z;
+  }
+  /// Sets the map from the current unknowns to the factorised rows (−1: unmatched, with 1/a_rr in inv_diag);
+  /// an empty map: the current unknowns are the factorised ones.
+  void set_map(std::vector<index_t> map, Eigen::VectorXd inv_diag, index_t factor_rows) {
+    map_ = std::move(map);
+    inv_diag_ = std::move(inv_diag);
+    factor_rows_ = factor_rows;
   }
   Eigen::ComputationInfo info() const { return p_.info(); }
   void setDroptol(double d) { p_.setDroptol(d); }
@@ -85,6 +114,9 @@ class lagged_preconditioner {
  private:
   P p_;
   bool refactor_ = true;
+  std::vector<index_t> map_;
+  Eigen::VectorXd inv_diag_;
+  index_t factor_rows_ = 0;
 };
 
 template <class EigenSolver, bool Symmetric>
@@ -101,6 +133,37 @@ class eigen_iterative {
   /// the last factorisation) an ILUT preconditioner is kept for up to solver_params::ilut_reuse solves.
   Eigen::ComputationInfo compute(const matrix& A, bool same_unknowns) {
     return prepare(A, lagging && same_unknowns && A.rows() == rows_ && since_ + 1 < p_.ilut_reuse && factored_);
+  }
+  /// As compute(A); `to_previous[r]` is the row of unknown r in the previous system (−1: none). With
+  /// solver_params::ilut_reuse_across_changes the ILUT factors are kept (for up to ilut_reuse solves in all)
+  /// when at most ilut_reuse_unmatched of the unknowns have no row in the factorised system (maps are composed
+  /// over the lagged solves); otherwise, and without the option, A is factorised.
+  Eigen::ComputationInfo compute(const matrix& A, const std::vector<index_t>& to_previous) {
+    if constexpr (lagging) {
+      if (p_.ilut_reuse_across_changes && factored_ && since_ + 1 < p_.ilut_reuse &&
+          static_cast<index_t>(to_previous.size()) == A.rows()) {
+        std::vector<index_t> to_factor(to_previous.size(), -1);
+        index_t unmatched = 0;
+        for (std::size_t r = 0; r < to_previous.size(); ++r) {
+          const index_t q = to_previous[r];
+          if (q >= 0 && q < rows_) to_factor[r] = to_factor_.empty() ? q : to_factor_[static_cast<std::size_t>(q)];
+          if (to_factor[r] < 0) ++unmatched;
+        }
+        if (static_cast<double>(unmatched) <= p_.ilut_reuse_unmatched * static_cast<double>(A.rows())) {
+          Eigen::VectorXd inv_diag = Eigen::VectorXd::Zero(A.rows());
+          for (std::size_t r = 0; r < to_factor.size(); ++r)
+            if (to_factor[r] < 0) {
+              const double d = A.coeff(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(r));
+              inv_diag[static_cast<Eigen::Index>(r)] = d != 0.0 ? 1.0 / d : 1.0;
+            }
+          s_.preconditioner().set_map(to_factor, std::move(inv_diag), factor_rows_);
+          to_factor_ = std::move(to_factor);
+          ++mapped_;
+          return prepare(A, true);
+        }
+      }
+    }
+    return prepare(A, false);
   }
   /// Solves A x = b starting from x; reports iterations and the true relative residual. After a lagged
   /// factorisation that fails, the solve is repeated once from the same start with fresh factors; the
@@ -124,6 +187,7 @@ class eigen_iterative {
   }
   long refactorised_after_failure() const { return relagged_; }  ///< lagged solves repeated with fresh factors
   long factorisations() const { return factorisations_; }         ///< ILUT factorisations so far
+  long mapped_reuses() const { return mapped_; }  ///< solves with factors kept across a change of the unknowns
 
  private:
   static constexpr bool lagging = requires(EigenSolver& e) { e.preconditioner().refactor(true); };
@@ -150,6 +214,9 @@ class eigen_iterative {
         ++factorisations_;
         since_ = 0;
         factored_ = info == Eigen::Success;
+        factor_rows_ = A.rows();
+        to_factor_.clear();  // the unknowns are the factorised ones
+        s_.preconditioner().set_map({}, Eigen::VectorXd(), 0);
       }
     }
     lagged_ = keep;
@@ -196,7 +263,9 @@ class eigen_iterative {
   long since_ = 0;        // solves since the last factorisation
   bool factored_ = false;  // the last factorisation succeeded
   bool lagged_ = false;    // the current solve uses kept factors
-  long relagged_ = 0, factorisations_ = 0;
+  long relagged_ = 0, factorisations_ = 0, mapped_ = 0;
+  index_t factor_rows_ = 0;        // rows of the factorised system
+  std::vector<index_t> to_factor_;  // current unknown → factorised row (empty: the same unknowns)
 };
 }  // namespace detail
 

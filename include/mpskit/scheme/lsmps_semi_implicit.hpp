@@ -1125,7 +1125,7 @@ class lsmps_semi_implicit {
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
     last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
                                      [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); },
-                                     same_unknowns);
+                                     same_unknowns, to_previous_.empty() ? nullptr : &to_previous_);
     c_.ppe_lagged_retries += last_solve_.lagged_retry;
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
@@ -1162,6 +1162,21 @@ class lsmps_semi_implicit {
                       static_cast<std::int64_t>(cp.element)});
     }
     const bool same = key_ == prev_key_;
+    to_previous_.clear();
+    if (!same && p_.solver.ilut_reuse_across_changes) {  // row of each unknown in the previous system, by identity
+      std::vector<index_t> order(prev_key_.size());
+      for (std::size_t q = 0; q < order.size(); ++q) order[q] = static_cast<index_t>(q);
+      std::sort(order.begin(), order.end(), [&](index_t a, index_t b) {
+        return prev_key_[static_cast<std::size_t>(a)] < prev_key_[static_cast<std::size_t>(b)];
+      });
+      to_previous_.assign(key_.size(), -1);
+      for (std::size_t r = 0; r < key_.size(); ++r) {
+        const auto it = std::lower_bound(order.begin(), order.end(), key_[r], [&](index_t q, const auto& k) {
+          return prev_key_[static_cast<std::size_t>(q)] < k;
+        });
+        if (it != order.end() && prev_key_[static_cast<std::size_t>(*it)] == key_[r]) to_previous_[r] = *it;
+      }
+    }
     std::swap(key_, prev_key_);
     return same;
   }
@@ -1369,6 +1384,7 @@ class lsmps_semi_implicit {
   Eigen::VectorXd b_, b_kept_;  // b_kept_: the right-hand sides as built, for the active set's repeats
   ppe::solve_report last_solve_{};
   std::vector<std::array<std::int64_t, 3>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
+  std::vector<index_t> to_previous_;  // row of each unknown in the previous system (ilut_reuse_across_changes)
   bool floating_before_ = false;  // the previous step had floating parts (its adjoint solver holds their factors)
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
