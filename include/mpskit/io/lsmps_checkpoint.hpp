@@ -51,7 +51,7 @@ void add_simulation_sections(checkpoint_sections& s, const scheme::lsmps_semi_im
   s.add_int64s("lsmps.counters", detail::lsmps_counter_values(c));
   s.add_doubles("lsmps.boundary_volumes", {c.inflow_volume, c.outflow_volume});
   const scheme::time_step_state& ts = sim.time_step().state();
-  s.add_int64s("lsmps.time_step", {ts.halvings, ts.held, ts.changes});
+  s.add_int64s("lsmps.time_step", scheme::section_values(ts));
   const resolution::ledger_step<D>& t = sim.ledger().totals();
   s.add_int64s("lsmps.ledger.counts", {sim.ledger().steps(), t.splits, t.merges});
   std::vector<double> sums{t.dV};
@@ -127,10 +127,7 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
   for (std::size_t k = 0; k < detail::lsmps_counter_count; ++k) *fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];
   c.outflow_volume = bv[1];
-  scheme::time_step_state ts;
-  ts.halvings = static_cast<int>(tsv[0]);
-  ts.held = tsv[1];
-  ts.changes = tsv[2];
+  const scheme::time_step_state ts = scheme::time_step_state_from(tsv);
 
   resolution::ledger_step<D> t;
   const std::vector<std::int64_t> lc = s.get_int64s("lsmps.ledger.counts");

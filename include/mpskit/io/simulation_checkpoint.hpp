@@ -44,7 +44,7 @@ checkpoint_sections simulation_sections(const Sim& sim) {
   s.add_int64s("semi_implicit.counters", {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.pinned_components,
                                           c.isolated, c.list_builds, c.reorders, c.negative_clamped});
   const scheme::time_step_state& ts = sim.time_step().state();
-  s.add_int64s("semi_implicit.time_step", {ts.halvings, ts.held, ts.changes});
+  s.add_int64s("semi_implicit.time_step", scheme::section_values(ts));
   return s;
 }
 
@@ -96,10 +96,7 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
   k.list_builds = c[5];
   k.reorders = c[6];
   k.negative_clamped = c[7];
-  scheme::time_step_state tss;
-  tss.halvings = static_cast<int>(ts[0]);
-  tss.held = ts[1];
-  tss.changes = ts[2];
+  const scheme::time_step_state tss = scheme::time_step_state_from(ts);
   sim.state() = std::move(st);
   sim.restore(t, k, tss);
 }

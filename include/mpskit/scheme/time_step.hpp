@@ -10,7 +10,9 @@
 /// r (e.g. 2^(1/4)) at between 1/r and 1 of it, for more frequent but smaller changes (docs/solver.md).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/params.hpp"
@@ -55,6 +57,17 @@ struct time_step_state {
   long held = 0;           ///< steps since the last change
   long changes = 0;        ///< number of changes so far
 };
+
+/// The state as a checkpoint section holds it: {halvings, held, changes}.
+inline std::vector<std::int64_t> section_values(const time_step_state& s) { return {s.halvings, s.held, s.changes}; }
+/// The state from a section's three values (the caller checks the count and the range).
+inline time_step_state time_step_state_from(const std::vector<std::int64_t>& v) {
+  time_step_state s;
+  s.halvings = static_cast<int>(v.at(0));
+  s.held = v.at(1);
+  s.changes = v.at(2);
+  return s;
+}
 
 /// Piecewise-constant Δt controller.
 class time_step_controller {
