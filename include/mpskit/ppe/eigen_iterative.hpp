@@ -87,14 +87,14 @@ class lagged_preconditioner {
   template <class R>
   Eigen::VectorXd solve(const R& b) const {
     if (map_.empty()) return p_.solve(b);
-    Eigen::VectorXd bf = Eigen::VectorXd::Zero(factor_rows_);
+    bf_.setZero(factor_rows_);  // buffers kept between the solver's calls (two per BiCGSTAB iteration)
     for (std::size_t r = 0; r < map_.size(); ++r)
-      if (map_[r] >= 0) bf[map_[r]] = b[static_cast<Eigen::Index>(r)];
-    const Eigen::VectorXd zf = p_.solve(bf);
+      if (map_[r] >= 0) bf_[map_[r]] = b[static_cast<Eigen::Index>(r)];
+    zf_ = p_.solve(bf_);
     Eigen::VectorXd z(b.size());
     for (std::size_t r = 0; r < map_.size(); ++r) {
       const auto e = static_cast<Eigen::Index>(r);
-      z[e] = map_[r] >= 0 ? zf[map_[r]] : b[e] * inv_diag_[e];
+      z[e] = map_[r] >= 0 ? zf_[map_[r]] : b[e] * inv_diag_[e];
     }
     return z;
   }
@@ -117,6 +117,7 @@ class lagged_preconditioner {
   std::vector<index_t> map_;
   Eigen::VectorXd inv_diag_;
   index_t factor_rows_ = 0;
+  mutable Eigen::VectorXd bf_, zf_;  // scatter and factor-solve buffers of the mapped solve
 };
 
 template <class EigenSolver, bool Symmetric>
