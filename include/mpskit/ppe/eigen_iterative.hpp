@@ -84,19 +84,23 @@ class lagged_preconditioner {
   }
   /// z = M⁻¹ b: the factors' solve; with a map (kept factors of another unknown set), b scattered to the
   /// factorised rows (unmatched rows dropped), solved, and gathered back; unmatched unknowns get b_r / a_rr.
+  /// The result is a buffer kept between calls (valid until the next call): no allocation per application.
   template <class R>
-  Eigen::VectorXd solve(const R& b) const {
-    if (map_.empty()) return p_.solve(b);
+  const Eigen::VectorXd& solve(const R& b) const {
+    if (map_.empty()) {
+      z_ = p_.solve(b);
+      return z_;
+    }
     bf_.setZero(factor_rows_);  // buffers kept between the solver's calls (two per BiCGSTAB iteration)
     for (std::size_t r = 0; r < map_.size(); ++r)
       if (map_[r] >= 0) bf_[map_[r]] = b[static_cast<Eigen::Index>(r)];
     zf_ = p_.solve(bf_);
-    Eigen::VectorXd z(b.size());
+    z_.resize(b.size());
     for (std::size_t r = 0; r < map_.size(); ++r) {
       const auto e = static_cast<Eigen::Index>(r);
-      z[e] = map_[r] >= 0 ? zf_[map_[r]] : b[e] * inv_diag_[e];
+      z_[e] = map_[r] >= 0 ? zf_[map_[r]] : b[e] * inv_diag_[e];
     }
-    return z;
+    return z_;
   }
   /// Sets the map from the current unknowns to the factorised rows (−1: unmatched, with 1/a_rr in inv_diag);
   /// an empty map: the current unknowns are the factorised ones.
@@ -117,7 +121,7 @@ class lagged_preconditioner {
   std::vector<index_t> map_;
   Eigen::VectorXd inv_diag_;
   index_t factor_rows_ = 0;
-  mutable Eigen::VectorXd bf_, zf_;  // scatter and factor-solve buffers of the mapped solve
+  mutable Eigen::VectorXd bf_, zf_, z_;  // scatter and factor-solve buffers of the mapped solve; the result
 };
 
 template <class EigenSolver, bool Symmetric>
@@ -155,6 +159,7 @@ class eigen_iterative {
           for (std::size_t r = 0; r < to_factor.size(); ++r)
             if (to_factor[r] < 0) {
               const double d = A.coeff(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(r));
+              // a preconditioner value only (the solution is not touched): a zero diagonal gets the identity
               inv_diag[static_cast<Eigen::Index>(r)] = d != 0.0 ? 1.0 / d : 1.0;
             }
           s_.preconditioner().set_map(to_factor, std::move(inv_diag), factor_rows_);
