@@ -172,6 +172,12 @@ struct lsmps_params {
   /// docs/lsmps_scheme.md deviation 12): the 3D tanks at rest stay quiet (the 60° prism meets issue #4's
   /// criteria), but as the default the 3D duct with pressure faces and a 3D tank refined along an edge fail.
   bool shift_second_wall = false;
+  /// Eq. 99 one-sided for the faces whose copies were merged away (ours, default on; docs/lsmps_scheme.md
+  /// deviation 14): a particle with a copy keeps no component of δx into any face within α_w L_i seen from the
+  /// front that has no copy of its own (two faces of a kink within wall::imaginary_params::merge_angle_deg
+  /// keep one copy, so nothing else holds the particle off the other face). Off, the shifting walked a particle
+  /// into an 18.4° concave corner of the paper's channel and the PPE failed (docs/resolution.md).
+  bool shift_merged_faces = true;
   /// ε of the velocity filter in the one-sided band (particles with a wall copy, a pressure-boundary or a
   /// free-surface particle among their neighbours, or a neighbour of another size beyond size_ratio; a
   /// deviation, regularize/boundary_filter.hpp): with the
@@ -413,6 +419,13 @@ class lsmps_semi_implicit {
   const resolution::split_merge_report<D>& last_resolution() const { return last_resolution_; }
   /// Diameter of particle i in the last step (V^(1/D)).
   double diameter(index_t i) const { return L_[i]; }
+  /// Shifting displacement δx of particle i in the last step (eqs. 93–100; zero in a scene without shifting),
+  /// in that step's particle order (see packing_ratio()).
+  vec<D> shift_displacement(index_t i) const {
+    if constexpr (has_shift)
+      if (i < 0 || i >= dx_.cols()) fail("lsmps_semi_implicit::shift_displacement: i = ", i, ", accepted range [0, ", dx_.cols(), ")");
+    return dx_shift(i);
+  }
 
   /// Advances one step.
   void step() {
@@ -860,12 +873,48 @@ class lsmps_semi_implicit {
                                                            tangential, active, p_.shift, dx_, &wall_normal_,
                                                            second ? &wall_normal2_ : nullptr);
     c_.shift_limited += static_cast<long>(rep.limited);
+    if (p_.shift_merged_faces && walls_ && nc_ > n) keep_off_merged_faces(n);
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
     for_each_particle(exec::par{}, n, [&](index_t i) {
       if (!active[static_cast<std::size_t>(i)] || (dx_.col(i).array() == 0.0).all()) return;
       mat<D> G;
       for (int a = 0; a < D; ++a) G.row(a) = op_.gradient(x, nl_, i, comp_[a], participates).transpose();
       s_.u().col(i) += G * dx_.col(i);  // eq. 91
+    });
+  }
+  /// Deviation 14 (docs/lsmps_scheme.md): for particle i with copies, every face within α_w L_i whose foot lies
+  /// on it and which is seen from the front ((x_i − q)·n ≥ 0, as wall/imaginary.hpp decides copies) but whose
+  /// normal is no copy's normal of i was merged away; if δx_i points into it (δx·n < 0) that component is
+  /// removed. The merge angle is < 90°, so n·n_copy > 0 and the removal leaves δx·n_copy ≥ 0: eq. 99's own
+  /// wall is not entered either. Only a concave kink has two faces' feet in reach: at a convex corner the feet
+  /// exclude each other. |δx| only shrinks, so eq. 100's limit still holds.
+  void keep_off_merged_faces(index_t n) {
+    const points<D>& x = s_.x();
+    first_copy_.assign(static_cast<std::size_t>(n) + 1, 0);
+    for (index_t k = n; k < nc_; ++k) ++first_copy_[static_cast<std::size_t>(parent(k)) + 1];
+    for (index_t i = 0; i < n; ++i) first_copy_[static_cast<std::size_t>(i) + 1] += first_copy_[static_cast<std::size_t>(i)];
+    // make_imaginary writes the copies grouped by parent in ascending order (checked: the ranges must match)
+    for (index_t k = n; k < nc_; ++k) {
+      const index_t i = parent(k);
+      if (k - n < first_copy_[static_cast<std::size_t>(i)] || k - n >= first_copy_[static_cast<std::size_t>(i) + 1])
+        fail("lsmps_semi_implicit: the wall copies are not grouped by parent (copy ", k - n, ", parent ", i, ")");
+    }
+    for_each_particle(exec::par{}, n, [&](index_t i) {
+      const index_t c0 = n + first_copy_[static_cast<std::size_t>(i)], c1 = n + first_copy_[static_cast<std::size_t>(i) + 1];
+      if (c0 == c1 || (dx_.col(i).array() == 0.0).all()) return;
+      const vec<D> xi = x.col(i);
+      const double r = p_.walls.alpha_w * L_[i];
+      vec<D> d = dx_.col(i);
+      walls_->for_each_element_within(xi, r, [&](const geometry::closest_point<D>& c) {
+        if (c.kind != geometry::feature_kind::face || !(c.distance < r)) return;
+        const vec<D> ne = walls_->element_normal(c.element);
+        if ((xi - c.point).dot(ne) < 0.0) return;  // behind it: the other side of a thin wall
+        for (index_t k = c0; k < c1; ++k)
+          if (ne.dot(normal_.col(k)) > 1.0 - 1e-9) return;  // this face has its own copy
+        const double into = d.dot(ne);
+        if (into < 0.0) d -= into * ne;
+      });
+      dx_.col(i) = d;
     });
   }
   vec<D> dx_shift(index_t i) const {
@@ -1370,6 +1419,7 @@ class lsmps_semi_implicit {
   const geometry_type* walls_ = nullptr;
   const pressure_boundary_type* pb_ = nullptr;
   index_t nc_ = 0;  ///< end of the copies in the ghost range (pressure-boundary particles follow)
+  std::vector<index_t> first_copy_;  ///< copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1])
   boundary::pressure_flux last_flux_{};
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
