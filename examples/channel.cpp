@@ -13,6 +13,8 @@
 //            entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 -> 0.25 mm, R = 3)
 //            --graded: with --refine, start from particles at the target diameter (resolution::graded_lattice)
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row, docs/lsmps_scheme.md)
+//            --thin-walls: the thin-wall visibility test on (lsmps_params::thin_walls; off in this case since
+//            2026-11-29, docs/channel.md; give it to resume a checkpoint written before)
 //            --dt-ratio r: the Δt ladder Δt_max / r^k (time_step_params::ratio, in [1.001, 2]; default 2)
 //            --progress S: a progress row on stderr every S wall seconds
 //            --checkpoint FILE [--every S] [--stop-after S]: write the run (and its running measurements) to FILE
@@ -198,6 +200,8 @@ int run(int argc, char** argv) {
     for (int a = 2; a < argc; ++a) {
       if (!std::strcmp(argv[a], "--neumann-points")) {  // the wall copies as Neumann points (opt-in wall rows)
         mc.params.copy_row = mpskit::scheme::copy_row_kind::neumann_points;
+      } else if (!std::strcmp(argv[a], "--thin-walls")) {  // the visibility test on (the library's default)
+        mc.params.thin_walls = true;
       } else if (!std::strcmp(argv[a], "--progress")) {
         if (a + 1 >= argc) {
           std::fprintf(stderr, "channel --multi: --progress needs an interval in wall seconds\n");
@@ -246,8 +250,8 @@ int run(int argc, char** argv) {
         if (!number("t_end", argv[a], mc.t_end)) return 2;
         ++positional;
       } else {
-        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--dt-ratio r] "
-                     "[--progress S] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--ilut-across] (unexpected '%s')\n",
+        std::fprintf(stderr, "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--thin-walls] "
+                     "[--dt-ratio r] [--progress S] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--ilut-across] (unexpected '%s')\n",
                      argv[a]);
         return 2;
       }
@@ -263,13 +267,14 @@ int run(int argc, char** argv) {
     if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
     const auto r = ratio >= 1.0 ? mpskit::cases::run_multi_diameter<mpskit::cases::multi_diameter_multires_scene>(mc)
                                 : mpskit::cases::run_multi_diameter(mc);
-    std::printf("multi-diameter channel, L = %.3f mm%s%s (%lld particles initially, %ld steps, %.1f s wall, %.1f PPE "
+    std::printf("multi-diameter channel, L = %.3f mm%s%s%s (%lld particles initially, %ld steps, %.1f s wall, %.1f PPE "
                 "iterations per step), to %.2f s:\n",
                 mc.L * 1e3,
                 ratio >= 1.0 ? (mc.graded_start ? ", graded to L/ratio in the narrow section at the start"
                                                  : ", split to L/ratio in the narrow section")
                              : "",
                 mc.params.copy_row == mpskit::scheme::copy_row_kind::neumann_points ? ", Neumann-point walls" : "",
+                mc.params.thin_walls ? ", thin-wall visibility test on" : "",
                 static_cast<long long>(r.particles), r.steps, r.wall_seconds,
                 static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), mc.t_end);
     if (r.resumed_at >= 0.0) std::printf("  resumed from '%s' at t = %.6f s\n", mc.resume.c_str(), r.resumed_at);
