@@ -317,8 +317,8 @@ TEST_SUITE("hydrostatic_polygon") {
               << " L; without " << off.checked << ", " << off.into << " L");
       CHECK(on.checked > 0);
       CHECK(on.into <= 1e-12);
-      // Without the rule the same scenes shift the kink particle into the incline (measured 3.2e-3 L in both:
-      // the first step's push from the placed neighbour; the channel's ratchet): the check above can fail.
+      // Without the rule the same scenes shift particles into a face (measured up to 3.2e-3 L in a step, the same
+      // in both; the channel's ratchet): the check above can fail.
       // 1e-4 leaves 30x room.
       CHECK(off.checked > 0);
       CHECK(off.into > 1e-4);
