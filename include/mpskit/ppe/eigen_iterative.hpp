@@ -121,7 +121,8 @@ class lagged_preconditioner {
   std::vector<index_t> map_;
   Eigen::VectorXd inv_diag_;
   index_t factor_rows_ = 0;
-  mutable Eigen::VectorXd bf_, zf_, z_;  // scatter and factor-solve buffers of the mapped solve; the result
+  mutable Eigen::VectorXd bf_, zf_;  // scatter and factor-solve buffers of the mapped solve
+  mutable Eigen::VectorXd z_;        // solve()'s result, returned by reference (valid until the next call)
 };
 
 template <class EigenSolver, bool Symmetric>
