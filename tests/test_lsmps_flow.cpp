@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <cstdint>
 #include <cstdio>
 #include <numbers>
@@ -708,6 +709,7 @@ namespace {
 struct tanaka_run {
   int samples = 0, inside = 0;
   int inside_widened = 0;  // inside the band widened by `widen` in Z on both sides
+  double worst_miss = 0.0;  // the largest distance of a sample outside the band (Z)
   double pmin = 0.0;     // fluid particles, all steps
   double rho_g_h = 0.0;  // ρ g H of the column
   long guarded = 0;
@@ -719,7 +721,8 @@ struct tanaka_run {
 };
 tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize::penalty_projection projection,
                                 scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient,
-                                int active_set_solves = 0, double widen = 0.0, double L = 0.004) {
+                                int active_set_solves = 0, double widen = 0.0, double L = 0.004,
+                                double max_amplification = std::numeric_limits<double>::infinity()) {
   cases::tanaka_dam_break_config c;
   c.L = L;
   scheme::lsmps_params<2> p;
@@ -727,9 +730,11 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
   p.active_set_solves = active_set_solves;
   p.copy_two_point = copy_two_point;
   p.shift.projection = projection;
+  p.boundary_filter.max_amplification = max_amplification;
   const auto r = cases::run_tanaka_dam_break(c, T_end, p);
   const std::vector<cases::front_series> data = cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
   int samples = 0, inside = 0, inside_widened = 0;
+  double worst_miss = 0.0;
   for (std::size_t k = 0; k < r.T.size(); ++k) {
     const auto band = cases::front_band(data, r.T[k]);
     if (std::isnan(band.first)) continue;
@@ -737,6 +742,7 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
     const bool ok = r.Z[k] >= band.first && r.Z[k] <= band.second;
     inside += ok;
     inside_widened += r.Z[k] >= band.first - widen && r.Z[k] <= band.second + widen;
+    worst_miss = std::max({worst_miss, band.first - r.Z[k], r.Z[k] - band.second});
     if (!ok) std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", r.T[k], r.Z[k], band.first, band.second);
   }
   std::printf("dam_break_lsmps L = %g mm to T = %.2f (neumann_points %d, copy_two_point %g, wall_only %d, active set %d): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = %.0f; copies %.0f), "
@@ -747,6 +753,7 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
   out.samples = samples;
   out.inside = inside;
   out.inside_widened = inside_widened;
+  out.worst_miss = worst_miss;
   out.pmin = r.p_min;
   out.rho_g_h = r.rho_g_h;
   out.guarded = r.guarded;
@@ -833,25 +840,27 @@ TEST_SUITE("dam_break_lsmps") {
     // Measured 0.454 (at T = 2.50); the Neumann-point run below falls to 0.104 by T = 1.9 (printed).
     CHECK(r.min_pair >= 0.3);
   }
-  TEST_CASE("Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting + active set: band, p >= 0 for T <= 2.8") {
+  TEST_CASE("Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting + active set + bounded filter: through the impact") {
     // active_set_solves = 10 (opt-in, docs/lsmps_scheme.md deviation 13): fluid pressures solved below 0 are held
-    // at 0 and the PPE solved again. Measured: p ≥ 0 by construction (no step left unfinished; 5.6e4
-    // particle-steps in the set, ≈ 1 repeated solve per step), the closest pair 0.689 L (without the set: 0.454 L
-    // and −4.1e4 Pa), so issue #7's p ≥ −ρgH holds to T = 2.8 (the copies, auxiliary unknowns, reach −10 ρgH).
-    // The front, however, is in the band at 54/57 samples only: ahead of it at T = 1.75–1.85 by 0.003–0.014
-    // in Z (0.3–1.4 mm, less than the L/2 = 2 mm by which the front is resolved), so this run does not meet the
-    // band strictly; asserted: at most those 3 misses, each within L/2. The run fails in the far-wall impact at
-    // T ≈ 2.96 (a sparse corner particle, c = 0.42, unflagged, runs to +5e4 ρgH): the impact window
-    // (T 2.91–3.05) is not reached at this spacing (at 5 mm it is, to T = 3.2; docs).
-    const auto r = run_tanaka_dam_break(2.8, 1.0, regularize::penalty_projection::wall_only,
-                                        scheme::copy_row_kind::parent_gradient, 10, 0.5 * 0.004 / 0.1);
-    CHECK(r.samples >= 53);
-    CHECK(r.inside_widened == r.samples);  // the band widened by L/2 = 0.02 in Z
-    CHECK(r.samples - r.inside <= 3);
+    // at 0 and the PPE solved again: p ≥ 0 by construction (no step left unfinished), so issue #7's p ≥ −ρgH holds
+    // (the copies, auxiliary unknowns, go below). Until 2026-12-01 this run failed in the far-wall impact at
+    // T ≈ 2.95: the one-sided-band filter's fit at a splash particle beside the wall (six neighbours, all on one
+    // side) extrapolated to 13, then 1177 m/s and shot it out at 75 m/s. With the filter bounded (opt-in
+    // boundary_filter_params::max_amplification = 20, docs/lsmps_scheme.md) it runs through the impact and the
+    // probe's 10 ms window. The front is ahead of the band at T = 1.75–1.85 by ≤ 0.015 in Z (1.5 mm, < L/2), as
+    // before the bound; asserted: at most 4 misses, each within L/2 = 0.02 in Z.
+    const auto r = run_tanaka_dam_break(3.2, 1.0, regularize::penalty_projection::wall_only,
+                                        scheme::copy_row_kind::parent_gradient, 10, 0.5 * 0.004 / 0.1, 0.004, 20.0);
+    CHECK(r.samples >= 55);  // the band's data end at T = 3
+    CHECK(r.inside_widened == r.samples);
+    CHECK(r.samples - r.inside <= 4);
     CHECK(r.active_set_unfinished == 0);
     CHECK(r.pmin >= 0.0);  // by the set (a kept negative would be counted above); issue #7 asks ≥ −ρgH
     CHECK(r.active_set_rows > 0);
-    CHECK(r.guarded == 0);
+    CHECK(r.guarded <= 4);  // measured 2 (in the impact); issue #9's hard cases report leakage rather than forbid it
+    REQUIRE(std::isfinite(r.impact.t_arrival));
+    CHECK(r.impact.complete);  // the run got through the probe's 10 ms window
+    CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
     CHECK(r.min_pair >= 0.5);  // issue #9's hard-case bound is 0.3; measured 0.689
   }
   TEST_CASE("Tanaka's dam break, L = 5 mm, two-point copy rows + contact-line shifting + active set: through the impact") {
@@ -859,8 +868,9 @@ TEST_SUITE("dam_break_lsmps") {
     // every dam-break criterion of issue #7 holds through the probe's 10 ms window (measured 2026-11-27: band
     // 65/65, p >= 0, no guard activation, closest pair 0.579 L, probe wet at T = 2.975, impulse 27.85 Pa s,
     // 2 ms-filtered peak 11.7 kPa against the paper's 4433 Pa at 1 mm; raw peak 99.8 kPa). Not at 4 mm (fails
-    // in the impact at T ≈ 2.96, case above), 3 mm (T ≈ 2.78) or 5.5 mm (T ≈ 2.6, a splash on the far wall);
-    // 4.5 mm passes the impact but with 7 guard activations (docs/lsmps_scheme.md, deviation 13). The outcome in
+    // in the impact at T ≈ 2.96; with the opt-in bounded filter it passes, case above), 3 mm (T ≈ 2.78) or 5.5 mm
+    // (T ≈ 2.6, a splash on the far wall); 4.5 mm passes the impact but with 7 guard activations
+    // (docs/lsmps_scheme.md, deviation 13). The outcome in
     // the impact is still a matter of the spacing, so this is a reproducible data point for the probe with
     // p >= -rho g H, not a claim that the option makes the impact robust.
     const auto r = run_tanaka_dam_break(3.2, 1.0, regularize::penalty_projection::wall_only,

@@ -297,8 +297,10 @@ TEST_SUITE("projection_stability") {
     const points<2> u0 = u;
     regularize::boundary_filter_params fp;  // ε = 0.05
     const auto all = [](index_t) { return true; };
-    const index_t count = regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, u0, u, du);
-    CHECK(count == n);
+    const regularize::boundary_filter_report fr =
+        regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, u0, u, du);
+    CHECK(fr.filtered == n);  // the bound leaves every particle of a quadratic field in: û_i = u_i
+    CHECK(fr.amplifying == 0);
     const double err = (u - u0).cwiseAbs().maxCoeff() / u0.cwiseAbs().maxCoeff();
     std::printf("projection_stability boundary filter on a quadratic field: max relative change %.2e\n", err);
     CHECK(err <= 1e-10);  // rounding of a 6×6 least-squares fit (measured ≈ 1e-14)
@@ -311,5 +313,45 @@ TEST_SUITE("projection_stability") {
     CHECK(s(1, k) == doctest::Approx(1.0 - fp.strength).epsilon(1e-12));
     fp.strength = 1.5;
     CHECK_THROWS_AS(fp.validate(), mpskit::error);
+    fp.strength = 0.05;
+    fp.max_amplification = 0.5;  // below 1 no fit passes (Σ|w| ≥ |Σ w| = 1)
+    CHECK_THROWS_AS(fp.validate(), mpskit::error);
+  }
+
+  TEST_CASE("boundary filter: a one-sided fit that amplifies its values (sum |w| > 20) is left alone") {
+    // The neighbourhood of the particle that left Tanaka's 4 mm dam break at 75 m/s in the far-wall impact
+    // (scratch trace, 2026-12-01, step 1476; offsets in L, velocities in m/s, the last one a wall copy at 0):
+    // six neighbours for the six coefficients of the order-2 fit, all on one side.
+    const double L = 0.004;
+    const double off[7][2] = {{0, 0}, {2.921, 0.537}, {1.684, 1.116}, {-0.340, 0.460}, {-0.534, 1.097}, {-1.395, 1.227}, {-1.856, 1.272}};
+    const double vel[7][2] = {{6.2843, 4.8448}, {2.795, 0.557}, {1.677, 0.671}, {0.992, -1.434}, {-4.426, -5.085}, {-0.056, 7.868}, {0, 0}};
+    const index_t n = 7;
+    points<2> x(2, n), u(2, n), du;
+    for (index_t k = 0; k < n; ++k) {
+      x.col(k) << 0.1 + off[k][0] * L, 0.01 + off[k][1] * L;
+      u.col(k) << vel[k][0], vel[k][1];
+    }
+    const Eigen::VectorXd Ls = Eigen::VectorXd::Constant(n, L);
+    search::neighbour_list<2> nl;
+    nl.build(exec::seq{}, x, search::per_particle_radius{&Ls, 3.1}, {0.0, search::domain<2>{}});
+    const search::support<search::per_particle_radius> sup{search::per_particle_radius{&Ls, 3.1}, search::radius_rule::pair_mean};
+    const auto all = [](index_t) { return true; };
+    const auto first = [](index_t i) { return i == 0; };
+    const points<2> u0 = u;
+    double spread = 0.0;
+    for (index_t k = 1; k < n; ++k) spread = std::max(spread, (u0.col(k) - u0.col(0)).norm());
+    regularize::boundary_filter_params fp;  // ε = 0.05, unbounded (the default)
+    regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, first, n, fp, u0, u, du);
+    const double jump = (u.col(0) - u0.col(0)).norm() / fp.strength;  // |û − u| of the unbounded fit
+    std::printf("projection_stability boundary filter, one-sided splash: |u_hat - u| = %.1f m/s, neighbour spread %.1f m/s\n",
+                jump, spread);
+    CHECK(jump > spread);  // the fit extrapolates beyond every value it is given
+    u = u0;
+    fp.max_amplification = 20.0;  // the fit here has Σ|w| = 66.6
+    const regularize::boundary_filter_report fr =
+        regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, first, n, fp, u0, u, du);
+    CHECK(fr.filtered == 0);
+    CHECK(fr.amplifying == 1);
+    CHECK((u - u0).cwiseAbs().maxCoeff() == 0.0);  // left alone, bitwise
   }
 }

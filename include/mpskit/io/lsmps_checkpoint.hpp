@@ -5,7 +5,8 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×24, lsmps_counters' integer counters in declaration order
+///   `lsmps.counters`            int64 ×25, lsmps_counters' integer counters in declaration order (files
+///                               written before 2026-12-01 hold 24, without filter_amplifying: read as 0)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume}
 ///   `lsmps.time_step`           int64 {halvings, held, changes}
 ///   `lsmps.ledger.counts`       int64 {steps, splits, merges}         conservation_ledger totals
@@ -37,9 +38,11 @@ inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counte
   return {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries, c.pinned_components, c.isolated,
           c.copies, c.small_diameter_events, c.guarded, c.shift_limited, c.degenerate, c.negative_clamped,
           c.wrong_sign_rows, c.active_set_rows, c.active_set_solves, c.active_set_unfinished, c.list_builds,
-          c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind};
+          c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying};
 }
-inline constexpr std::size_t lsmps_counter_count = 24;
+inline constexpr std::size_t lsmps_counter_count = 25;
+/// The count of files written before filter_amplifying existed (2026-12-01): still read, that counter 0.
+inline constexpr std::size_t lsmps_counter_count_24 = 24;
 }  // namespace detail
 
 /// Adds the LSMPS simulation's non-particle state to `s` (see the file comment).
@@ -112,7 +115,7 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
   const std::vector<double> time = s.get_doubles("lsmps.time");
   expect("lsmps.time", time.size(), 2);
   const std::vector<std::int64_t> cv = s.get_int64s("lsmps.counters");
-  expect("lsmps.counters", cv.size(), detail::lsmps_counter_count);
+  if (cv.size() != detail::lsmps_counter_count_24) expect("lsmps.counters", cv.size(), detail::lsmps_counter_count);
   const std::vector<double> bv = s.get_doubles("lsmps.boundary_volumes");
   expect("lsmps.boundary_volumes", bv.size(), 2);
   const std::vector<std::int64_t> tsv = s.get_int64s("lsmps.time_step");
@@ -122,9 +125,9 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
                     &c.isolated, &c.copies, &c.small_diameter_events, &c.guarded, &c.shift_limited, &c.degenerate,
                     &c.negative_clamped, &c.wrong_sign_rows, &c.active_set_rows, &c.active_set_solves,
                     &c.active_set_unfinished, &c.list_builds, &c.reorders, &c.filtered, &c.splits, &c.merges,
-                    &c.inflow, &c.outflow, &c.outflow_behind};
+                    &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying};
   static_assert(sizeof(fields) / sizeof(fields[0]) == detail::lsmps_counter_count);
-  for (std::size_t k = 0; k < detail::lsmps_counter_count; ++k) *fields[k] = static_cast<long>(cv[k]);
+  for (std::size_t k = 0; k < cv.size(); ++k) *fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];
   c.outflow_volume = bv[1];
   const scheme::time_step_state ts = scheme::time_step_state_from(tsv);
