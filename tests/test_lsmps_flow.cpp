@@ -709,7 +709,6 @@ namespace {
 struct tanaka_run {
   int samples = 0, inside = 0;
   int inside_widened = 0;  // inside the band widened by `widen` in Z on both sides
-  double worst_miss = 0.0;  // the largest distance of a sample outside the band (Z)
   double pmin = 0.0;     // fluid particles, all steps
   double rho_g_h = 0.0;  // ρ g H of the column
   long guarded = 0;
@@ -734,7 +733,6 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
   const auto r = cases::run_tanaka_dam_break(c, T_end, p);
   const std::vector<cases::front_series> data = cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
   int samples = 0, inside = 0, inside_widened = 0;
-  double worst_miss = 0.0;
   for (std::size_t k = 0; k < r.T.size(); ++k) {
     const auto band = cases::front_band(data, r.T[k]);
     if (std::isnan(band.first)) continue;
@@ -742,7 +740,6 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
     const bool ok = r.Z[k] >= band.first && r.Z[k] <= band.second;
     inside += ok;
     inside_widened += r.Z[k] >= band.first - widen && r.Z[k] <= band.second + widen;
-    worst_miss = std::max({worst_miss, band.first - r.Z[k], r.Z[k] - band.second});
     if (!ok) std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", r.T[k], r.Z[k], band.first, band.second);
   }
   std::printf("dam_break_lsmps L = %g mm to T = %.2f (neumann_points %d, copy_two_point %g, wall_only %d, active set %d): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = %.0f; copies %.0f), "
@@ -753,7 +750,6 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
   out.samples = samples;
   out.inside = inside;
   out.inside_widened = inside_widened;
-  out.worst_miss = worst_miss;
   out.pmin = r.p_min;
   out.rho_g_h = r.rho_g_h;
   out.guarded = r.guarded;

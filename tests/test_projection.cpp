@@ -296,11 +296,12 @@ TEST_SUITE("projection_stability") {
     }
     const points<2> u0 = u;
     regularize::boundary_filter_params fp;  // ε = 0.05
+    fp.max_amplification = 20.0;  // the opt-in bound: no fit of this lattice (corners included) reaches it
     const auto all = [](index_t) { return true; };
     const regularize::boundary_filter_report fr =
         regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, u0, u, du);
-    CHECK(fr.filtered == n);  // the bound leaves every particle of a quadratic field in: û_i = u_i
-    CHECK(fr.amplifying == 0);
+    CHECK(fr.filtered == n);
+    CHECK(fr.amplifying == 0);  // Σ|w| ≤ 5.86 at this lattice's corners (measured), far below 20
     const double err = (u - u0).cwiseAbs().maxCoeff() / u0.cwiseAbs().maxCoeff();
     std::printf("projection_stability boundary filter on a quadratic field: max relative change %.2e\n", err);
     CHECK(err <= 1e-10);  // rounding of a 6×6 least-squares fit (measured ≈ 1e-14)
