@@ -251,6 +251,22 @@ TEST_SUITE("core") {
                            doctest::Contains("time step collapsed at step 42"), mpskit::error);
     }
   }
+
+  TEST_CASE("scheme: max_speed is a blow-up bound, off by default, refused when not > 0") {
+    scheme::time_step_params p;
+    CHECK(std::isinf(p.max_speed));  // default: no bound
+    CHECK_NOTHROW(scheme::time_step_controller(p).check_speed(1e300, 1, 2));
+    p.max_speed = 10.0;
+    const scheme::time_step_controller c(p);
+    CHECK_NOTHROW(c.check_speed(10.0, 7, 3));  // at the bound: allowed
+    CHECK_THROWS_WITH_AS(c.check_speed(std::nextafter(10.0, 11.0), 7, 3),
+                         doctest::Contains("blow-up at step 7: particle 3 moves at |u| = 10"), mpskit::error);
+    for (const double bad : {0.0, -1.0, std::nan("")}) {
+      CAPTURE(bad);
+      p.max_speed = bad;
+      CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("max_speed"), mpskit::error);
+    }
+  }
 }
 
 namespace {

@@ -366,6 +366,28 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(st.x()(0, drop) == x0[0]);
     CHECK(sim.counters().isolated >= 50);
   }
+  TEST_CASE("the blow-up bound (time_step_params::max_speed) stops a run at the step that starts above it") {
+    // The lone droplet of the case above falls at g with Δt = 1e-3 s: |u| = k Δt |g| at the start of step k, so
+    // with the bound at 0.2 m/s the first step to start above it is k = ceil(0.2 / (Δt |g|)) (21 with |g| = 9.81);
+    // the tank's fluid, at rest, stays far below 0.2 m/s over 21 steps.
+    const cases::polygon_tank_config tc = tall_box_config();
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    scheme::lsmps_state<2> s0(tank.size() + 1);
+    s0.x().leftCols(tank.size()) = tank.x;
+    s0.x().col(tank.size()) = vec<2>(0.1, 0.3);
+    s0.u().setZero();
+    s0.get<field::volume>().setConstant(tc.L * tc.L);
+    scheme::lsmps_params<2> p;
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_fixed = 1e-3;
+    p.time.max_speed = 0.2;
+    p.reorder_every = 0;
+    simulation<lsmps_defaults<2>> sim(p, std::move(s0), &tank.walls);
+    const long k = static_cast<long>(std::ceil(0.2 / (1e-3 * p.g.norm())));
+    for (long s = 0; s < k; ++s) REQUIRE_NOTHROW(sim.step());
+    const std::string expected = mpskit::detail::concat("blow-up at step ", k, ": particle ", tank.size(), " moves");
+    CHECK_THROWS_WITH_AS(sim.step(), doctest::Contains(expected.c_str()), mpskit::error);
+  }
   TEST_CASE("Neumann-point walls with nothing to solve: two surface particles moving into a wall lose their normal velocity") {
     // Every fluid particle a surface one (p = 0), so the PPE has no unknown, but the correction's gradient still
     // carries the copies' Neumann data ∂p/∂n = ρ u′·n/Δt (eq. 83, copy_row = neumann_points, deviation 11). A

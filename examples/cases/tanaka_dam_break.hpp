@@ -43,6 +43,11 @@ struct tanaka_dam_break_config {
   double obstacle_width = 0.0;    ///< block on the floor (m; 0 with obstacle_height 0: none; §5.6.2: 10 mm)
   double obstacle_height = 0.0;   ///< its height (m; §5.6.2: 10 mm)
   double obstacle_centre = 0.0;   ///< x of its centre (m; §5.6.2 "mid-vessel", our reading x = 0)
+  /// Blow-up bound of run_tanaka_dam_break: max |u| ≤ max_speed_factor √(g H) (time_step_params::max_speed; ours).
+  /// 50: the fastest splash of a run that went on to finish was 27 m/s = 19 √(gH) (4 mm, bounded filter); the
+  /// runaway particle of a failing one passed 75 m/s one step before its Δt fell by 10⁴ (docs/solver.md).
+  /// Infinity: no bound.
+  double max_speed_factor = 50.0;
   /// True when the vessel has a block on its floor.
   bool has_obstacle() const { return obstacle_width > 0.0 || obstacle_height > 0.0; }
   /// Throws mpskit::error listing every bad value.
@@ -58,6 +63,8 @@ struct tanaka_dam_break_config {
       v.require(false, "L", mpskit::detail::concat("is ", L, ", must be <= min(column_width, column_height)"));
     v.non_negative("obstacle_width", obstacle_width).non_negative("obstacle_height", obstacle_height);
     v.finite("obstacle_centre", obstacle_centre);
+    v.require(max_speed_factor > 0.0, "max_speed_factor",
+              mpskit::detail::concat("is ", max_speed_factor, ", must be > 0 (infinity: no bound)"));
     if (has_obstacle()) {
       v.require(obstacle_width > 0.0 && obstacle_height > 0.0, "obstacle_width",
                 "and obstacle_height must both be > 0 (or both 0: no obstacle)");

@@ -115,8 +115,8 @@ struct no_tanaka_observer {
   void operator()(const Sim&) const {}
 };
 
-/// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g and Δt_max =
-/// 0.1 L / √(2 g H) are set from the case. With catch_failure an mpskit::error ends the run and is recorded
+/// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g, Δt_max =
+/// 0.1 L / √(2 g H) and the blow-up bound max_speed = max_speed_factor √(g H) are set from the case. With catch_failure an mpskit::error ends the run and is recorded
 /// (the reporter's failed configurations); otherwise it propagates. `observe(sim)` is called after every step
 /// (output, progress).
 template <class Scene = lsmps_defaults<2>, class Observer = no_tanaka_observer>
@@ -131,6 +131,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   p.nu = c.mu / c.rho;
   p.g << 0.0, -c.g;
   p.time.dt_max = 0.1 * c.L / std::sqrt(2.0 * c.g * c.column_height);
+  p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
   simulation<Scene> sim(p, std::move(s0), &db.walls);
   tanaka_dam_break_result r;
   r.rho_g_h = c.rho * c.g * c.column_height;

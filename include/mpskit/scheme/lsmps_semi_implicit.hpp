@@ -453,6 +453,7 @@ class lsmps_semi_implicit {
         limiting = i;
       }
     }
+    dt_ctrl_.check_speed(umax, c_.steps, fastest == npos ? npos : id_of(fastest));
     if (p_.time.per_particle_courant)
       dt_ = dt_ctrl_.next(lc, uc, lmin, p_.nu, c_.steps, limiting == npos ? npos : id_of(limiting));
     else

@@ -218,6 +218,7 @@ class semi_implicit {
         const double u = s_.u().col(i).norm();
         if (u > umax) { umax = u; fastest = i; }
       }
+    dt_ctrl_.check_speed(umax, c_.steps, fastest == npos ? npos : id_of(fastest));
     dt_ = dt_ctrl_.next(p_.l0, umax, p_.nu, c_.steps, fastest == npos ? npos : id_of(fastest));
     const double dt = dt_;
     if (p_.reorder_every > 0 && c_.steps % p_.reorder_every == 0) {

@@ -39,6 +39,11 @@ struct time_step_params {
   double hysteresis = 1.5;   ///< Δt grows one rung only when r Δt ≤ limit / hysteresis
   int hold_steps = 10;       ///< and only after this many steps at the current Δt
   int max_halvings = 30;     ///< Δt below dt_max / 2^30 is a collapsed time step (error), whatever the ratio
+  /// Blow-up bound (m/s; ours, no paper has one): a step that starts with a fluid particle faster than this throws
+  /// (naming step, particle and speed). Default ∞, no bound. Without it a run that has blown up steps on at
+  /// Δt ~ 1e-9 s for many minutes before the ladder collapses (Δt = α_C L / |u| tracks the runaway speed);
+  /// the Tanaka dam-break runner sets 50 √(g H) (docs/solver.md, "Blow-up bound").
+  double max_speed = std::numeric_limits<double>::infinity();
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("time_step_params");
@@ -46,6 +51,7 @@ struct time_step_params {
     v.in_range("ratio", ratio, 1.0 + 1e-3, 2.0);
     v.in_range("hysteresis", hysteresis, 1.0, 100.0).in_range("hold_steps", hold_steps, 0, 1e6);
     v.in_range("max_halvings", max_halvings, 1, 60);
+    v.require(max_speed > 0.0, "max_speed", mpskit::detail::concat("is ", max_speed, ", must be > 0 (infinity: no bound)"));
     if (mode == time_step_mode::fixed) v.positive("dt_fixed", dt_fixed);
     v.throw_if_any();
   }
@@ -124,6 +130,13 @@ class time_step_controller {
       ++s_.held;
     }
     return dt();
+  }
+
+  /// Throws when the fastest speed `u_max` (of particle id `particle`, at step `step`) exceeds max_speed.
+  void check_speed(double u_max, long step, long particle) const {
+    if (u_max > p_.max_speed)
+      fail("blow-up at step ", step, ": particle ", particle, " moves at |u| = ", u_max, " m/s, above max_speed = ",
+           p_.max_speed, " m/s (time_step_params::max_speed)");
   }
 
   /// Current Δt (r = 2: exactly dt_max / 2^k, as before the ratio existed).
