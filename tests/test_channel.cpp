@@ -1017,4 +1017,45 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
+  TEST_CASE("restart: LSMPS counters section of 25 values, or of 24 (files before filter_amplifying) read as 0") {
+    mpskit::test::scratch tmp("mpskit_test_channel", "counters");
+    const auto c = restart_channel();
+    cases::multi_diameter_setup su = cases::make_multi_diameter(c);
+    md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
+    a.step();
+    io::checkpoint_sections all;
+    io::add_simulation_sections(all, a);
+    auto real = a.state();
+    real.clear_ghosts();
+    // The file with its counters section replaced by `counters` (every other section as save_simulation writes it).
+    const auto write = [&](const std::string& name, const std::vector<std::int64_t>& counters) {
+      io::checkpoint_sections s;
+      for (const std::string& n : all.names()) {
+        if (n == "lsmps.counters") s.add_int64s(n, counters);
+        else if (n == "lsmps.ledger.flux_names") s.add_bytes(n, all.get_bytes(n));
+        else if (n == "lsmps.time_step" || n == "lsmps.ledger.counts" || n == "lsmps.ledger.flux_particles")
+          s.add_int64s(n, all.get_int64s(n));
+        else s.add_doubles(n, all.get_doubles(n));
+      }
+      io::save_checkpoint(tmp / name, real, s);
+      return tmp / name;
+    };
+    std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
+    REQUIRE(v.size() == 25);
+    v.back() = 7;  // filter_amplifying is the last value
+    md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("25.mpscp", v), b);
+    CHECK(b.counters().filter_amplifying == 7);
+    CHECK(b.counters().steps == 1);
+    CHECK(b.counters().copies == a.counters().copies);
+    md_sim d(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("24.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 1)), d);
+    CHECK(d.counters().filter_amplifying == 0);
+    CHECK(d.counters().outflow_behind == a.counters().outflow_behind);
+    CHECK(d.counters().steps == 1);
+    CHECK(d.time() == a.time());
+    md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 2)), e),
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 25"), mpskit::error);
+  }
 }
