@@ -1017,7 +1017,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 25 values, or of 24 (files before filter_amplifying) read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 26 values, or of 24 and 25 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     const auto c = restart_channel();
     cases::multi_diameter_setup su = cases::make_multi_diameter(c);
@@ -1041,21 +1041,31 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 25);
-    v.back() = 7;  // filter_amplifying is the last value
+    REQUIRE(v.size() == 26);
+    v[24] = 7;  // filter_amplifying
+    v[25] = 9;  // filter_tapered, the last value
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("25.mpscp", v), b);
+    io::load_simulation(write("26.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
+    CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
+    md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("25.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 1)), b25);
+    CHECK(b25.counters().filter_amplifying == 7);
+    CHECK(b25.counters().filter_tapered == 0);
     md_sim d(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("24.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 1)), d);
+    io::load_simulation(write("24.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 2)), d);
     CHECK(d.counters().filter_amplifying == 0);
+    CHECK(d.counters().filter_tapered == 0);
     CHECK(d.counters().outflow_behind == a.counters().outflow_behind);
     CHECK(d.counters().steps == 1);
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 2)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 25"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 3)), e),
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 26"), mpskit::error);
+    v.push_back(0);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("27.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 27 values, expected 26"), mpskit::error);
   }
 }

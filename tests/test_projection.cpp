@@ -302,6 +302,15 @@ TEST_SUITE("projection_stability") {
         regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, fp, u0, u, du);
     CHECK(fr.filtered == n);
     CHECK(fr.amplifying == 0);  // Σ|w| ≤ 5.86 at this lattice's corners (measured), far below 20
+    {  // the opt-in taper at 6 leaves every fit of this lattice at full strength: bitwise the same result
+      points<2> ut = u0;
+      regularize::boundary_filter_params tp;
+      tp.taper_amplification = 6.0;
+      const auto tr = regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, all, n, tp, u0, ut, du);
+      CHECK(tr.tapered == 0);
+      CHECK(tr.filtered == n);
+      CHECK((ut - u).cwiseAbs().maxCoeff() == 0.0);
+    }
     const double err = (u - u0).cwiseAbs().maxCoeff() / u0.cwiseAbs().maxCoeff();
     std::printf("projection_stability boundary filter on a quadratic field: max relative change %.2e\n", err);
     CHECK(err <= 1e-10);  // rounding of a 6×6 least-squares fit (measured ≈ 1e-14)
@@ -317,6 +326,9 @@ TEST_SUITE("projection_stability") {
     fp.strength = 0.05;
     fp.max_amplification = 0.5;  // below 1 no fit passes (Σ|w| ≥ |Σ w| = 1)
     CHECK_THROWS_AS(fp.validate(), mpskit::error);
+    fp.max_amplification = 20.0;
+    fp.taper_amplification = 0.5;
+    CHECK_THROWS_WITH_AS(fp.validate(), doctest::Contains("taper_amplification"), mpskit::error);
   }
 
   TEST_CASE("boundary filter: a one-sided fit that amplifies its values (sum |w| > 20) is left alone") {
@@ -354,5 +366,21 @@ TEST_SUITE("projection_stability") {
     CHECK(fr.filtered == 0);
     CHECK(fr.amplifying == 1);
     CHECK((u - u0).cwiseAbs().maxCoeff() == 0.0);  // left alone, bitwise
+    // Tapered at 6 instead (no bound): filtered with ε 6/Σ|w|, i.e. the unbounded change scaled by 6/66.6 (the
+    // fit's Σ|w|, 66.6 to three digits): parallel to it, 0.0901 of its length to 1e-3.
+    points<2> full = u0, tap = u0;
+    regularize::boundary_filter_params up;  // unbounded
+    regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, first, n, up, u0, full, du);
+    up.taper_amplification = 6.0;
+    const regularize::boundary_filter_report tr =
+        regularize::boundary_filter(exec::seq{}, x, Ls, nl, sup, op::lsmps_params{}, all, first, n, up, u0, tap, du);
+    CHECK(tr.filtered == 1);
+    CHECK(tr.tapered == 1);
+    CHECK(tr.amplifying == 0);
+    const vec<2> dfull = full.col(0) - u0.col(0), dtap = tap.col(0) - u0.col(0);
+    const double ratio = dtap.norm() / dfull.norm();
+    CHECK(ratio == doctest::Approx(6.0 / 66.6).epsilon(1e-3));
+    CHECK(std::abs(dfull[0] * dtap[1] - dfull[1] * dtap[0]) <= 1e-12 * dfull.norm() * dtap.norm());  // parallel
+    CHECK((tap.rightCols(n - 1) - u0.rightCols(n - 1)).cwiseAbs().maxCoeff() == 0.0);  // only the selected particle
   }
 }

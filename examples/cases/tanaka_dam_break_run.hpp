@@ -34,6 +34,7 @@ struct tanaka_dam_break_result {
   double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
   long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
+  long filter_amplifying = 0, filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -180,6 +181,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.volume_change = volume() / V0 - 1.0;
   r.guarded = sim.counters().guarded;
   r.filtered = sim.counters().filtered;
+  r.filter_amplifying = sim.counters().filter_amplifying;
+  r.filter_tapered = sim.counters().filter_tapered;
   r.ppe_iterations = sim.counters().ppe_iterations;
   r.active_set_rows = sim.counters().active_set_rows;
   r.active_set_unfinished = sim.counters().active_set_unfinished;

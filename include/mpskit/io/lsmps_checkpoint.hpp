@@ -5,8 +5,9 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×25, lsmps_counters' integer counters in declaration order (files
-///                               written before 2026-12-01 hold 24, without filter_amplifying: read as 0)
+///   `lsmps.counters`            int64 ×26, lsmps_counters' integer counters in declaration order (files
+///                               written before 2026-12-01 hold 24, without filter_amplifying and
+///                               filter_tapered, or 25, without filter_tapered: the missing ones read as 0)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume}
 ///   `lsmps.time_step`           int64 {halvings, held, changes}
 ///   `lsmps.ledger.counts`       int64 {steps, splits, merges}         conservation_ledger totals
@@ -38,11 +39,13 @@ inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counte
   return {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries, c.pinned_components, c.isolated,
           c.copies, c.small_diameter_events, c.guarded, c.shift_limited, c.degenerate, c.negative_clamped,
           c.wrong_sign_rows, c.active_set_rows, c.active_set_solves, c.active_set_unfinished, c.list_builds,
-          c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying};
+          c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
+          c.filter_tapered};
 }
-inline constexpr std::size_t lsmps_counter_count = 25;
-/// The count of files written before filter_amplifying existed (2026-12-01): still read, that counter 0.
-inline constexpr std::size_t lsmps_counter_count_24 = 24;
+inline constexpr std::size_t lsmps_counter_count = 26;
+/// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01):
+/// still read, the missing counters 0.
+inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 
 /// Adds the LSMPS simulation's non-particle state to `s` (see the file comment).
@@ -115,7 +118,10 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
   const std::vector<double> time = s.get_doubles("lsmps.time");
   expect("lsmps.time", time.size(), 2);
   const std::vector<std::int64_t> cv = s.get_int64s("lsmps.counters");
-  if (cv.size() != detail::lsmps_counter_count_24) expect("lsmps.counters", cv.size(), detail::lsmps_counter_count);
+  if (cv.size() < detail::lsmps_counter_count_min || cv.size() > detail::lsmps_counter_count)
+    fail("load_simulation: '", file, "': section 'lsmps.counters' holds ", cv.size(), " values, expected ",
+         detail::lsmps_counter_count, " (or ", detail::lsmps_counter_count_min, " to ", detail::lsmps_counter_count - 1,
+         " from older files)");
   const std::vector<double> bv = s.get_doubles("lsmps.boundary_volumes");
   expect("lsmps.boundary_volumes", bv.size(), 2);
   const std::vector<std::int64_t> tsv = s.get_int64s("lsmps.time_step");
@@ -125,7 +131,7 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
                     &c.isolated, &c.copies, &c.small_diameter_events, &c.guarded, &c.shift_limited, &c.degenerate,
                     &c.negative_clamped, &c.wrong_sign_rows, &c.active_set_rows, &c.active_set_solves,
                     &c.active_set_unfinished, &c.list_builds, &c.reorders, &c.filtered, &c.splits, &c.merges,
-                    &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying};
+                    &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying, &c.filter_tapered};
   static_assert(sizeof(fields) / sizeof(fields[0]) == detail::lsmps_counter_count);
   for (std::size_t k = 0; k < cv.size(); ++k) *fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];

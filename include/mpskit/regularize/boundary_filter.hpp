@@ -23,6 +23,13 @@
 /// Not the default: with Λ_max = 20 the obstacle case at 2.5 mm (the main example's reference) blows up, and
 /// no threshold tried kept every case (docs/lsmps_scheme.md, "The one-sided-band filter").
 ///
+/// Tapered (ours, opt-in since 2026-12-01): above Λ_t the strength falls as ε_i = ε Λ_t / Λ_i, so the change
+/// ε_i |û_i − u_i| stays below about ε Λ_t times the neighbours' spread however one-sided the fit (counted). Also
+/// a function of the positions only, so linear in u. Measured with Λ_t = 6 (above every fit of the stability
+/// tests, max 5.86): the dam break at 4, 5 and 5.5 mm and the obstacle case at 5 and 2.5 mm get through with lower
+/// splash speeds than with Λ_max = 20, but 4.5 mm fails (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with
+/// both (docs/lsmps_scheme.md).
+///
 /// Determinism: û is computed from the velocities before the pass (Jacobi style), into a scratch array, so
 /// the result does not depend on the thread count. Neighbour displacements come from the list (minimum image
 /// on periodic axes).
@@ -58,6 +65,11 @@ struct boundary_filter_params {
   /// Accepted [1, inf]; inf (the default) is the unbounded filter. 20 gets Tanaka's dam break at 4 mm through
   /// the far-wall impact (docs/lsmps_scheme.md).
   double max_amplification = std::numeric_limits<double>::infinity();
+  /// Λ_t: a particle whose fit has Σ_j |w_ij| = Λ_i above this is filtered with ε Λ_t / Λ_i instead of ε (and
+  /// counted). Accepted [1, inf]; inf (the default) keeps ε everywhere. With max_amplification too, fits above
+  /// Λ_max are left alone and those between Λ_t and Λ_max tapered. 6 lies above every fit of the stability
+  /// tests (docs/lsmps_scheme.md).
+  double taper_amplification = std::numeric_limits<double>::infinity();
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("boundary_filter_params");
@@ -65,6 +77,8 @@ struct boundary_filter_params {
     v.require(size_ratio >= 1.0, "size_ratio", mpskit::detail::concat("is ", size_ratio, "; must be in [1, inf]"));
     v.require(max_amplification >= 1.0, "max_amplification",
               mpskit::detail::concat("is ", max_amplification, "; must be in [1, inf]"));
+    v.require(taper_amplification >= 1.0, "taper_amplification",
+              mpskit::detail::concat("is ", taper_amplification, "; must be in [1, inf]"));
     v.throw_if_any();
   }
 };
@@ -73,13 +87,15 @@ struct boundary_filter_params {
 struct boundary_filter_report {
   index_t filtered = 0;       ///< particles changed
   index_t amplifying = 0;     ///< particles left alone by the bound (params.max_amplification)
+  index_t tapered = 0;        ///< particles filtered with a reduced strength (params.taper_amplification)
 };
 
 /// Filters u in place at the first n particles with selected(i): u_i += ε (û_i − u_i), û_i the LSMPS-B
 /// order-2 fit at x_i of the values `src` over the participating neighbours j ≠ i within the operator
 /// support (pair radius of `op`, sizes L); src_i = u_i for i < n (other columns: e.g. a wall copy carrying
 /// its parent's velocity). A particle whose fit is degenerate (order_used < 2) or
-/// amplifying (Σ|w| > params.max_amplification) is left alone. Returns the counts. `du` is scratch (resized here).
+/// amplifying (Σ|w| > params.max_amplification) is left alone, one with Σ|w| > params.taper_amplification is
+/// filtered with ε Λ_t / Σ|w|. Returns the counts. `du` is scratch (resized here).
 template <int D, class Exec, class Participates, class Selected>
 boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eigen::VectorXd& L, const search::neighbour_list<D>& nl,
                         const search::support<search::per_particle_radius>& support, const op::lsmps_params& op,
@@ -91,7 +107,7 @@ boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eige
          ") exceed the sizes (", L.size(), ") or the fitted values (", src.cols(), ")");
   const op::lsmps_b<D, 2> fit(op);
   du.setZero(D, n);
-  std::vector<std::uint8_t> done(static_cast<std::size_t>(n), 0);  // 1 filtered, 2 left alone by the bound
+  std::vector<std::uint8_t> done(static_cast<std::size_t>(n), 0);  // 1 filtered, 2 left alone by the bound, 3 tapered
   for_each_particle(exec, n, [&](index_t i) {
     if (!selected(i) || !participates(i)) return;
     // Neighbours as displacements from x_i (the fit point is the origin), their own sizes.
@@ -121,13 +137,16 @@ boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eige
       done[static_cast<std::size_t>(i)] = 2;
       return;
     }
-    du.col(i) = p.strength * (uhat - src.col(i));
-    done[static_cast<std::size_t>(i)] = 1;
+    const bool taper = lebesgue > p.taper_amplification;
+    du.col(i) = (taper ? p.strength * (p.taper_amplification / lebesgue) : p.strength) * (uhat - src.col(i));
+    done[static_cast<std::size_t>(i)] = taper ? 3 : 1;
   });
   boundary_filter_report rep;
   for (index_t i = 0; i < n; ++i) {
-    if (done[static_cast<std::size_t>(i)] == 2) ++rep.amplifying;
-    if (done[static_cast<std::size_t>(i)] != 1) continue;
+    const std::uint8_t d = done[static_cast<std::size_t>(i)];
+    if (d == 2) ++rep.amplifying;
+    if (d == 3) ++rep.tapered;
+    if (d != 1 && d != 3) continue;
     u.col(i) += du.col(i);
     ++rep.filtered;
   }

@@ -276,6 +276,7 @@ struct lsmps_counters {
   long outflow = 0;                ///< particles removed by pressure-boundary outflow (r_ip < α_o L_i)
   long outflow_behind = 0;         ///< particles removed behind a pressure face (a deviation, docs/channel.md)
   long filter_amplifying = 0;      ///< particle-steps of the band left unfiltered: Σ|w| of their fit > boundary_filter_params::max_amplification
+  long filter_tapered = 0;         ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| > boundary_filter_params::taper_amplification
   double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
   double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
 };
@@ -375,7 +376,8 @@ class lsmps_semi_implicit {
                            c.pinned_components, c.isolated, c.copies, c.small_diameter_events, c.guarded,
                            c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
                            c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
-                           c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying};
+                           c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
+                           c.filter_tapered};
     for (long v : counts)
       if (v < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", v, ")");
     if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
@@ -582,6 +584,7 @@ class lsmps_semi_implicit {
           exec::par{}, x, L_, nl_, support(), p_.op, fitted, one_sided, n, p_.boundary_filter, s_.u(), s_.u(), filter_du_);
       c_.filtered += static_cast<long>(fr.filtered);
       c_.filter_amplifying += static_cast<long>(fr.amplifying);
+      c_.filter_tapered += static_cast<long>(fr.tapered);
     }
     // 10. Shifting (δx from this step's lists at x^k; δu = ∇u δx, eq. 91).
     if constexpr (has_shift) shift_particles();
