@@ -45,7 +45,7 @@ struct tanaka_dam_break_config {
   double obstacle_centre = 0.0;   ///< x of its centre (m; §5.6.2 "mid-vessel", our reading x = 0)
   /// Blow-up bound of run_tanaka_dam_break: max |u| ≤ max_speed_factor √(g H) (time_step_params::max_speed; ours).
   /// 50: the fastest splash of a run that went on to finish was 27 m/s = 19 √(gH) (4 mm, bounded filter); the
-  /// runaway particle of a failing one passed 75 m/s one step before its Δt fell by 10⁴ (docs/solver.md).
+  /// unbounded 4 mm run is stopped at T = 2.965 with its runaway particle at 74.7 m/s (docs/solver.md).
   /// Infinity: no bound.
   double max_speed_factor = 50.0;
   /// True when the vessel has a block on its floor.

@@ -117,8 +117,9 @@ struct no_tanaka_observer {
 };
 
 /// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g, Δt_max =
-/// 0.1 L / √(2 g H) and the blow-up bound max_speed = max_speed_factor √(g H) are set from the case. With catch_failure an mpskit::error ends the run and is recorded
-/// (the reporter's failed configurations); otherwise it propagates. `observe(sim)` is called after every step
+/// 0.1 L / √(2 g H) and the blow-up bound max_speed = max_speed_factor √(g H) are set from the case. With
+/// catch_failure an mpskit::error ends the run and is recorded (the reporter's failed configurations);
+/// otherwise it propagates. `observe(sim)` is called after every step
 /// (output, progress).
 template <class Scene = lsmps_defaults<2>, class Observer = no_tanaka_observer>
 tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, double T_end,

@@ -26,9 +26,9 @@
 /// Tapered (ours, opt-in since 2026-12-01): above Λ_t the strength falls as ε_i = ε Λ_t / Λ_i, so the change
 /// ε_i |û_i − u_i| stays below about ε Λ_t times the neighbours' spread however one-sided the fit (counted). Also
 /// a function of the positions only, so linear in u. Measured with Λ_t = 6 (above every fit of the stability
-/// tests, max 5.86): the dam break at 4, 5 and 5.5 mm and the obstacle case at 5 and 2.5 mm get through with lower
-/// splash speeds than with Λ_max = 20, but 4.5 mm fails (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with
-/// both (docs/lsmps_scheme.md).
+/// tests, max 5.86): the dam break at 4, 5 and 5.5 mm and the obstacle case at 5 and 2.5 mm get through (peak
+/// speeds below Λ_max = 20's at 4 mm and in the obstacle case, above them at 5 and 5.5 mm), but 4.5 mm fails
+/// (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with both (docs/lsmps_scheme.md).
 ///
 /// Determinism: û is computed from the velocities before the pass (Jacobi style), into a scratch array, so
 /// the result does not depend on the thread count. Neighbour displacements come from the list (minimum image
