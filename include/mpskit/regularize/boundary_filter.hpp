@@ -28,7 +28,8 @@
 /// a function of the positions only, so linear in u. Measured with Λ_t = 6 (above every fit of the stability
 /// tests, max 5.86): the dam break at 4, 5 and 5.5 mm and the obstacle case at 5 and 2.5 mm get through (peak
 /// speeds below Λ_max = 20's at 4 mm and in the obstacle case, above them at 5 and 5.5 mm), but 4.5 mm fails
-/// (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with both (docs/lsmps_scheme.md).
+/// (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with both; as the default it breaks five dam-break tests
+/// (docs/lsmps_scheme.md).
 ///
 /// Determinism: û is computed from the velocities before the pass (Jacobi style), into a scratch array, so
 /// the result does not depend on the thread count. Neighbour displacements come from the list (minimum image
