@@ -1019,8 +1019,7 @@ TEST_SUITE("restart") {
   }
   TEST_CASE("restart: LSMPS counters section of 26 values, or of 24 and 25 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
-    const auto c = restart_channel();
-    cases::multi_diameter_setup su = cases::make_multi_diameter(c);
+    cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
     a.step();
     io::checkpoint_sections all;

@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <string>
