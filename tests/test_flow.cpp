@@ -3,12 +3,14 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "cases/dam_break.hpp"
 #include "cases/hydrostatic.hpp"
 #include "mpskit/geometry/generators.hpp"
+#include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/wall/polygon_layers.hpp"
 
 using namespace mpskit;
@@ -196,6 +198,36 @@ TEST_SUITE("solver") {
     const double dp = bottom / nb - top / nt;
     MESSAGE("closed tank: bottom − top pressure " << dp << " Pa, rho g (H − l0) = " << 1000 * 9.81 * (H - l0));
     CHECK(dp == doctest::Approx(1000 * 9.81 * (H - l0)).epsilon(0.05));
+  }
+
+  TEST_CASE("solver: floating parts — the union-find check agrees with the search, one-way entries connect") {
+    // Rows 0–2 a chain joined only by one-way entries (0 → 1 in row 0, 2 → 1 in row 2: a part of A + Aᵀ, not
+    // of A alone), rows 3–4 a pair, row 5 alone. Which parts hold a Dirichlet row decides the answer.
+    const auto make = [] {
+      ppe::matrix A(6, 6);
+      std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t{{0, 0, -2.0}, {0, 1, 1.0}, {1, 1, -1.0}, {2, 2, -2.0},
+                                                            {2, 1, 1.0},  {3, 3, -1.0}, {3, 4, 1.0}, {4, 4, -1.0},
+                                                            {4, 3, 1.0},  {5, 5, -1.0}};
+      A.setFromTriplets(t.begin(), t.end());
+      return A;
+    };
+    const ppe::matrix A = make();
+    const auto key = [](index_t r) { return 10 - r; };  // the pin is the largest row of a part
+    const auto parts_of = [&](std::vector<std::uint8_t> d) {
+      CHECK(ppe::every_part_anchored(A, d) == ppe::search_floating_parts(A, d, false, key).empty());
+      return ppe::find_floating_parts(A, d, false, key);
+    };
+    CHECK(parts_of({0, 1, 0, 1, 0, 1}).empty());   // each part anchored (the chain through its middle row)
+    CHECK(parts_of({1, 0, 0, 0, 1, 1}).empty());   // ... through an end row: row 2 reaches it only via Aᵀ
+    auto parts = parts_of({0, 0, 1, 0, 0, 1});     // the pair floats
+    REQUIRE(parts.size() == 1);
+    CHECK(parts[0].pin == 4);
+    CHECK(parts[0].members.size() == 2);
+    parts = parts_of({0, 0, 0, 0, 0, 0});          // all three float
+    REQUIRE(parts.size() == 3);
+    CHECK(parts[0].pin == 2);
+    CHECK(parts[0].members.size() == 3);
+    CHECK(parts[2].pin == 5);
   }
 
   TEST_CASE("solver: polygon wall layers match box layers and distance bands on inclined walls") {
