@@ -247,6 +247,34 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     return functional(i, laplacian_selector()).dot(moment_vector(x, nl, i, phi, filter));
   }
 
+  /// ⟨∇φ_a⟩_i of D fields as the rows of one matrix (∇u for u's components), from one neighbour sweep
+  /// (moment_vectors): row a is gradient(x, nl, i, phi[a], filter) to the bit.
+  template <class Filter = all_neighbours>
+  mat<D> gradients(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                   const std::array<Eigen::VectorXd, D>& phi, const Filter& filter = {}) const {
+    const Eigen::Matrix<double, basis_size, D> B = moment_vectors(x, nl, i, phi, filter);
+    mat<D> G;
+    for (int a = 0; a < D; ++a) {
+      const vector b = B.col(a);
+      G.row(a) = vec<D>((inverse_moments(i).template topRows<D>() * b) / diameter(i)).transpose();
+    }
+    return G;
+  }
+
+  /// ⟨∇²φ_a⟩_i of D fields from one neighbour sweep: entry a is laplacian(x, nl, i, phi[a], filter) to the bit.
+  template <class Filter = all_neighbours>
+  vec<D> laplacians(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
+                    const std::array<Eigen::VectorXd, D>& phi, const Filter& filter = {}) const {
+    const Eigen::Matrix<double, basis_size, D> B = moment_vectors(x, nl, i, phi, filter);
+    const vector f = functional(i, laplacian_selector());
+    vec<D> l;
+    for (int a = 0; a < D; ++a) {
+      const vector b = B.col(a);
+      l[a] = f.dot(b);
+    }
+    return l;
+  }
+
   /// ⟨∇²φ⟩_i for an Eigen::VectorXd (exact match: a VectorXd also converts to points<D>).
   template <class Filter = all_neighbours>
   double laplacian(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
@@ -363,6 +391,30 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
       b += (w * (phi[j] - phii)) * pv;
     });
     return b;
+  }
+
+  /// Eq. 45 for D fields in one sweep: column a is moment_vector(x, nl, i, phi[a], filter), the same terms added
+  /// in the same order (so the same to the bit; Neumann points add their term to every column, as there).
+  template <class Filter>
+  Eigen::Matrix<double, basis_size, D> moment_vectors(const points<D>& x, const search::neighbour_list<D>& nl,
+                                                      index_t i, const std::array<Eigen::VectorXd, D>& phi,
+                                                      const Filter& filter) const {
+    Eigen::Matrix<double, basis_size, D> B = Eigen::Matrix<double, basis_size, D>::Zero();
+    vector pv;
+    vec<D> phii;
+    for (int a = 0; a < D; ++a) phii[a] = phi[static_cast<std::size_t>(a)][i];
+    const double Li = diameter(i);
+    sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
+      if (is_point(j)) {
+        basis::eval_directional(s, np_.normal->col(j), pv);
+        const double c = w * Li * (*np_.dfdn)[j];
+        for (int a = 0; a < D; ++a) B.col(a) += c * pv;
+        return;
+      }
+      basis::eval(s, pv);
+      for (int a = 0; a < D; ++a) B.col(a) += (w * (phi[static_cast<std::size_t>(a)][j] - phii[a])) * pv;
+    });
+    return B;
   }
 
   /// B_i = Σ_j w_ij p(x_ij/L_i) (u_j − u_i)ᵀ (eq. 45 per component).

@@ -70,6 +70,7 @@
 #include "mpskit/ppe/solve.hpp"
 #include "mpskit/regularize/boundary_filter.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
+#include "mpskit/scheme/detail/component_fits.hpp"
 #include "mpskit/scheme/detail/resolution_stage.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"
@@ -534,8 +535,10 @@ class lsmps_semi_implicit {
     for (int a = 0; a < D; ++a) comp_[a] = u.row(a).transpose();
     for_each_particle(exec::par{}, n, [&](index_t i) {
       vec<D> acc = p_.g;
-      if (participates(i) && p_.nu > 0.0)
-        for (int a = 0; a < D; ++a) acc[a] += p_.nu * op_.laplacian(x, nl_, i, comp_[a], participates);
+      if (participates(i) && p_.nu > 0.0) {
+        const vec<D> lap = detail::component_laplacians(op_, x, nl_, i, comp_, participates);
+        for (int a = 0; a < D; ++a) acc[a] += p_.nu * lap[a];
+      }
       ut_.col(i) = u.col(i) + dt * acc;
     });
     // Copies: u′_w = w-weighted average of the participating fluid neighbours' u′ (§4.5.1).
@@ -883,8 +886,7 @@ class lsmps_semi_implicit {
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
     for_each_particle(exec::par{}, n, [&](index_t i) {
       if (!active[static_cast<std::size_t>(i)] || (dx_.col(i).array() == 0.0).all()) return;
-      mat<D> G;
-      for (int a = 0; a < D; ++a) G.row(a) = op_.gradient(x, nl_, i, comp_[a], participates).transpose();
+      const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
       s_.u().col(i) += G * dx_.col(i);  // eq. 91
     });
   }
@@ -1077,7 +1079,8 @@ class lsmps_semi_implicit {
           b_[r] = dpdn_[i] / p_.rho - row.constant();
         } else {
           mat<D> A = mat<D>::Identity();
-          for (int a = 0; a < D; ++a) A.row(a) += dt * op_.gradient(x, nl_, i, comp_[a], participates).transpose();
+          const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
+          for (int a = 0; a < D; ++a) A.row(a) += dt * G.row(a);
           row.reset(i);
           if (p_.pressure == pressure_operator::nested_gradient) {
             build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);

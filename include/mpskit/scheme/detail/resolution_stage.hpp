@@ -14,6 +14,7 @@
 #include "mpskit/core/state.hpp"
 #include "mpskit/geometry/polygon_set.hpp"
 #include "mpskit/resolution/concepts.hpp"
+#include "mpskit/scheme/detail/component_fits.hpp"
 #include "mpskit/resolution/ledger.hpp"
 #include "mpskit/resolution/split_merge.hpp"
 #include "mpskit/resolution/uniform.hpp"
@@ -64,10 +65,7 @@ resolution::split_merge_report<D> run_resolution_stage(particle_state<D, Fields>
       for (int a = 0; a < D; ++a) comp[static_cast<std::size_t>(a)] = s.u().row(a).transpose();
       ready = true;
     }
-    mat<D> G;
-    for (int a = 0; a < D; ++a)
-      G.row(a) = op.gradient(xg, nl, i, comp[static_cast<std::size_t>(a)], participates).transpose();
-    return G;
+    return component_gradients(op, xg, nl, i, comp, participates);
   };
   const resolution::split_merge_inputs<D> in{&nl, &L, &normals, flags, walls, wall_reach};
   return R::apply(exec::par{}, s, in, p, grad_u, &ledger);
