@@ -394,15 +394,23 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
   }
 
   /// Eq. 45 for D fields in one sweep: column a is moment_vector(x, nl, i, phi[a], filter), the same terms added
-  /// in the same order (so the same to the bit; Neumann points add their term to every column, as there).
+  /// in the same order (so the same to the bit).
   template <class Filter>
   Eigen::Matrix<double, basis_size, D> moment_vectors(const points<D>& x, const search::neighbour_list<D>& nl,
                                                       index_t i, const std::array<Eigen::VectorXd, D>& phi,
                                                       const Filter& filter) const {
+    return moment_columns(x, nl, i, filter, [&](int a, index_t j) { return phi[static_cast<std::size_t>(a)][j]; });
+  }
+
+  /// Eq. 45 for the D columns value(a, ·), a < D, in one sweep: column a gets w_ij (value(a, j) − value(a, i))
+  /// p(x_ij/L_i), and a Neumann point j adds w_ij L_i (∂φ/∂n)_j p_n to every column, as moment_vector does.
+  template <class Filter, class Value>
+  Eigen::Matrix<double, basis_size, D> moment_columns(const points<D>& x, const search::neighbour_list<D>& nl,
+                                                      index_t i, const Filter& filter, const Value& value) const {
     Eigen::Matrix<double, basis_size, D> B = Eigen::Matrix<double, basis_size, D>::Zero();
     vector pv;
-    vec<D> phii;
-    for (int a = 0; a < D; ++a) phii[a] = phi[static_cast<std::size_t>(a)][i];
+    vec<D> vi;
+    for (int a = 0; a < D; ++a) vi[a] = value(a, i);
     const double Li = diameter(i);
     sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
       if (is_point(j)) {
@@ -412,25 +420,17 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
         return;
       }
       basis::eval(s, pv);
-      for (int a = 0; a < D; ++a) B.col(a) += (w * (phi[static_cast<std::size_t>(a)][j] - phii[a])) * pv;
+      for (int a = 0; a < D; ++a) B.col(a) += (w * (value(a, j) - vi[a])) * pv;
     });
     return B;
   }
 
-  /// B_i = Σ_j w_ij p(x_ij/L_i) (u_j − u_i)ᵀ (eq. 45 per component).
+  /// B_i = Σ_j w_ij p(x_ij/L_i) (u_j − u_i)ᵀ (eq. 45 per component; its callers refuse Neumann points).
   template <class Filter>
   Eigen::Matrix<double, basis_size, D> moment_matrix(const points<D>& x, const search::neighbour_list<D>& nl,
                                                      index_t i, const points<D>& u,
                                                      const Filter& filter) const {
-    Eigen::Matrix<double, basis_size, D> B = Eigen::Matrix<double, basis_size, D>::Zero();
-    vector pv;
-    const vec<D> ui = u.col(i);
-    sweep(x, nl, i, filter, [&](index_t j, double w, const vec<D>& s) {
-      basis::eval(s, pv);
-      const vec<D> du = w * (u.col(j) - ui);
-      B.noalias() += pv * du.transpose();
-    });
-    return B;
+    return moment_columns(x, nl, i, filter, [&](int a, index_t j) { return u(a, j); });
   }
 
   template <Execution E, SizeModel S, class Filter>
