@@ -1,0 +1,104 @@
+// Robustness as a pass rate (docs/lsmps_scheme.md "Robustness over an ensemble of spacings"): Tanaka's dam break
+// (cases/tanaka_dam_break_run.hpp, issue #7) through the far-wall impact, run at each of a list of spacings with
+// one configuration, one CSV row per run. Whether one run gets through the impact changes chaotically with the
+// spacing and any option (a different particle fails at a different stage each time), so a single run says
+// little about a configuration; the share of an ensemble of spacings that reaches T_end does.
+//
+//   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_impact_ensemble --L 3,3.25,3.5 [--T 3.2] [--walls NAME]
+//       [--bound LAMBDA] [--taper LAMBDA] [--max-condition C] [--header]
+//
+// --walls: a wall variant of cases::tanaka_wall_variants (default two_point_wall_only_active_set, the example's);
+// --bound / --taper: regularize::boundary_filter_params::max_amplification / taper_amplification (default inf);
+// --max-condition: op::lsmps_params::max_condition (default 1e8). The blow-up bound is the case's, max |u| ≤
+// 50 √(gH). benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cases/tanaka_dam_break_run.hpp"
+
+using namespace mpskit;
+
+namespace {
+std::vector<double> parse_list(const char* s) {
+  std::vector<double> v;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !(x > 0.0) || !std::isfinite(x))
+      fail("bench_impact_ensemble: --L entry '", item, "' is not a spacing > 0 in mm");
+    v.push_back(x);
+  }
+  return v;
+}
+double parse_number(const char* name, const char* s, double lo) {
+  char* end = nullptr;
+  const double x = std::strtod(s, &end);
+  if (*end != '\0' || !(x >= lo)) fail("bench_impact_ensemble: ", name, " '", s, "': must be a number >= ", lo);
+  return x;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    std::vector<double> spacings;
+    double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0;
+    std::string walls_name = "two_point_wall_only_active_set";
+    bool header = false;
+    for (int a = 1; a < argc; ++a) {
+      const bool v = a + 1 < argc;
+      if (!std::strcmp(argv[a], "--L") && v) spacings = parse_list(argv[++a]);
+      else if (!std::strcmp(argv[a], "--T") && v) T_end = parse_number("--T", argv[++a], 1e-9);
+      else if (!std::strcmp(argv[a], "--walls") && v) walls_name = argv[++a];
+      else if (!std::strcmp(argv[a], "--bound") && v) bound = parse_number("--bound", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--taper") && v) taper = parse_number("--taper", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--max-condition") && v) max_condition = parse_number("--max-condition", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--header")) header = true;
+      else fail("bench_impact_ensemble: unexpected argument '", argv[a], "' (see the file's comment for the usage)");
+    }
+    if (header)
+      std::printf("walls,bound,taper,max_condition,L_mm,reached,T_last,steps,guarded,max_u_sqrt_gH,T_max_u,p_min_rho_g_H,"
+                  "min_pair_ratio,wall_s\n");
+    const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
+    for (const double L_mm : spacings) {
+      cases::tanaka_dam_break_config c;
+      c.L = 1e-3 * L_mm;
+      c.validate();
+      scheme::lsmps_params<2> p;
+      walls.apply(p);
+      p.boundary_filter.max_amplification = bound;
+      p.boundary_filter.taper_amplification = taper;
+      if (max_condition > 0.0) p.op.max_condition = max_condition;
+      const double sqrt_gH = std::sqrt(c.g * c.column_height), T_per_s = std::sqrt(2.0 * c.g / c.column_width);
+      double u_max = 0.0, T_u = 0.0;
+      const auto observe = [&](const auto& sim) {
+        const auto& st = sim.state();
+        for (index_t i = 0; i < st.n_real(); ++i) {
+          const double u = st.u().col(i).norm();
+          if (u > u_max) u_max = u, T_u = sim.time() * T_per_s;
+        }
+      };
+      const auto t0 = std::chrono::steady_clock::now();
+      const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(c, T_end, p, true, observe);
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::printf("%s,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f\n", walls.name.c_str(), bound, taper,
+                  max_condition > 0.0 ? max_condition : p.op.max_condition, L_mm, r.failed ? 0 : 1,
+                  r.failed ? r.T_failed : T_end, r.steps, r.guarded, u_max / sqrt_gH, T_u, r.p_min / r.rho_g_h,
+                  r.min_pair_ratio, wall);
+      std::fflush(stdout);
+    }
+    return 0;
+  } catch (const mpskit::error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Runs bench_impact_ensemble (benchmarks/impact_ensemble.cpp) over an ensemble of spacings on JOBS processes of
+# one OpenMP thread each and prints the pass count; rows in benchmarks/results/impact_ensemble/<tag>.csv.
+# See docs/lsmps_scheme.md "Robustness over an ensemble of spacings".
+#
+#   benchmarks/run_impact_ensemble.sh TAG [bench_impact_ensemble options, e.g. --bound 20]
+#
+# Environment: BUILD_DIR (default build/bench, configured with -DMPSKIT_BUILD_BENCHMARKS=ON), SPACINGS (mm,
+# default 3, 3.1, ..., 6 mm: 31 spacings), JOBS (default 2), T_END (default 3.2).
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/.." && pwd)"
+build="${BUILD_DIR:-$root/build/bench}"
+jobs="${JOBS:-2}"
+spacings="${SPACINGS:-$(seq 3 0.1 6)}"
+tag="${1:?usage: run_impact_ensemble.sh TAG [options]}"
+shift
+bin="$build/benchmarks/bench_impact_ensemble"
+[ -x "$bin" ] || cmake --build "$build" --target bench_impact_ensemble -j 1 >/dev/null
+out="$here/results/impact_ensemble"
+mkdir -p "$out" "$out/$tag.d"
+export OMP_NUM_THREADS=1
+# one process per spacing, JOBS at a time; each writes its own row, merged in spacing order below
+printf '%s\n' $spacings | xargs -P "$jobs" -I{} sh -c "'$bin' --L {} --T '${T_END:-3.2}' $* > '$out/$tag.d/{}.csv'"
+{
+  "$bin" --header "$@"
+  for L in $spacings; do cat "$out/$tag.d/$L.csv"; done
+} > "$out/$tag.csv"
+rm -r "$out/$tag.d"
+awk -F, -v tag="$tag" 'NR > 1 { n++; ok += $6; s = s sprintf(" %s:%s", $5, $6 ? "ok" : sprintf("F%.2f", $7)) }
+  END { printf "%s: %d of %d reached T_end;%s\n", tag, ok, n, s }' "$out/$tag.csv"
