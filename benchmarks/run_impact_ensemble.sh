@@ -16,7 +16,10 @@ spacings="${SPACINGS:-$(seq 3 0.1 6)}"
 tag="${1:?usage: run_impact_ensemble.sh TAG [options]}"
 shift
 bin="$build/benchmarks/bench_impact_ensemble"
-[ -x "$bin" ] || cmake --build "$build" --target bench_impact_ensemble -j 1 >/dev/null
+# configured here when the directory is new; built every time (a no-op when up to date, never a stale binary)
+[ -f "$build/CMakeCache.txt" ] || cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DMPSKIT_BUILD_BENCHMARKS=ON \
+  -DMPSKIT_BUILD_TESTS=OFF -DMPSKIT_BUILD_EXAMPLES=OFF >/dev/null
+cmake --build "$build" --target bench_impact_ensemble -j 1 >/dev/null
 out="$here/results/impact_ensemble"
 mkdir -p "$out" "$out/$tag.d"
 export OMP_NUM_THREADS=1
@@ -26,6 +29,10 @@ printf '%s\n' $spacings | xargs -P "$jobs" -I{} sh -c "'$bin' --L {} --T '${T_EN
   "$bin" --header "$@"
   for L in $spacings; do cat "$out/$tag.d/$L.csv"; done
 } > "$out/$tag.csv"
+# a run that ended without its row (a crash, not a scheme failure: those are rows with reached = 0) is an error
+missing=""
+for L in $spacings; do [ -s "$out/$tag.d/$L.csv" ] || missing="$missing $L"; done
+if [ -n "$missing" ]; then echo "run_impact_ensemble.sh: no row for L =$missing mm (see $out/$tag.d)" >&2; exit 1; fi
 rm -r "$out/$tag.d"
 awk -F, -v tag="$tag" 'NR > 1 { n++; ok += $6; s = s sprintf(" %s:%s", $5, $6 ? "ok" : sprintf("F%.2f", $7)) }
   END { printf "%s: %d of %d reached T_end;%s\n", tag, ok, n, s }' "$out/$tag.csv"
