@@ -5,11 +5,14 @@
 // little about a configuration; the share of an ensemble of spacings that reaches T_end does.
 //
 //   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_impact_ensemble --L 3,3.25,3.5 [--T 3.2] [--walls NAME]
-//       [--bound LAMBDA] [--taper LAMBDA] [--max-condition C] [--header]
+//       [--bound LAMBDA] [--taper LAMBDA] [--max-condition C] [--courant A]
+//       [--filter-strength EPS] [--shift-limit ALPHA_S] [--header]
 //
 // --walls: a wall variant of cases::tanaka_wall_variants (default two_point_wall_only_active_set, the example's);
 // --bound / --taper: regularize::boundary_filter_params::max_amplification / taper_amplification (default inf);
-// --max-condition: op::lsmps_params::max_condition (default 1e8). The blow-up bound is the case's, max |u| ≤
+// --max-condition: op::lsmps_params::max_condition (default 1e8); --courant: time_step_params::courant α_C (default
+// Tanaka's 0.1; the runner's Δt_max = α_C L / √(2 g H) follows it); --filter-strength: the boundary filter's ε per
+// step (default 0.05); --shift-limit: the shifting's α_S of eq. 100, |δx| ≤ α_S L per step (default Tanaka's 0.01). The blow-up bound is the case's, max |u| ≤
 // 50 √(gH). benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
 #include <algorithm>
 #include <chrono>
@@ -51,7 +54,7 @@ double parse_number(const char* name, const char* s, double lo) {
 int main(int argc, char** argv) {
   try {
     std::vector<double> spacings;
-    double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0;
+    double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0, courant = 0.1, filter_eps = 0.05, shift_limit = 0.01;
     std::string walls_name = "two_point_wall_only_active_set";
     bool header = false;
     for (int a = 1; a < argc; ++a) {
@@ -62,11 +65,14 @@ int main(int argc, char** argv) {
       else if (!std::strcmp(argv[a], "--bound") && v) bound = parse_number("--bound", argv[++a], 1.0);
       else if (!std::strcmp(argv[a], "--taper") && v) taper = parse_number("--taper", argv[++a], 1.0);
       else if (!std::strcmp(argv[a], "--max-condition") && v) max_condition = parse_number("--max-condition", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--courant") && v) courant = parse_number("--courant", argv[++a], 1e-6);
+      else if (!std::strcmp(argv[a], "--filter-strength") && v) filter_eps = parse_number("--filter-strength", argv[++a], 0.0);
+      else if (!std::strcmp(argv[a], "--shift-limit") && v) shift_limit = parse_number("--shift-limit", argv[++a], 1e-9);
       else if (!std::strcmp(argv[a], "--header")) header = true;
       else fail("bench_impact_ensemble: unexpected argument '", argv[a], "' (see the file's comment for the usage)");
     }
     if (header)
-      std::printf("walls,bound,taper,max_condition,L_mm,reached,T_last,steps,guarded,max_u_sqrt_gH,T_max_u,p_min_rho_g_H,"
+      std::printf("walls,bound,taper,max_condition,courant,filter_strength,shift_limit,L_mm,reached,T_last,steps,guarded,max_u_sqrt_gH,T_max_u,p_min_rho_g_H,"
                   "min_pair_ratio,wall_s\n");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
     for (const double L_mm : spacings) {
@@ -78,6 +84,9 @@ int main(int argc, char** argv) {
       p.boundary_filter.max_amplification = bound;
       p.boundary_filter.taper_amplification = taper;
       if (max_condition > 0.0) p.op.max_condition = max_condition;
+      p.time.courant = courant;  // these three validated by the scheme (0 < α_C < 1, 0 ≤ ε ≤ 1, α_S > 0)
+      p.boundary_filter.strength = filter_eps;
+      p.shift.alpha_S = shift_limit;
       const double sqrt_gH = std::sqrt(c.g * c.column_height), T_per_s = std::sqrt(2.0 * c.g / c.column_width);
       double u_max = 0.0, T_u = 0.0;
       const auto observe = [&](const auto& sim) {
@@ -90,8 +99,8 @@ int main(int argc, char** argv) {
       const auto t0 = std::chrono::steady_clock::now();
       const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(c, T_end, p, true, observe);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::printf("%s,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f\n", walls.name.c_str(), bound, taper,
-                  max_condition > 0.0 ? max_condition : p.op.max_condition, L_mm, r.failed ? 0 : 1,
+      std::printf("%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f\n", walls.name.c_str(), bound, taper,
+                  max_condition > 0.0 ? max_condition : p.op.max_condition, courant, filter_eps, shift_limit, L_mm, r.failed ? 0 : 1,
                   r.failed ? r.T_failed : T_end, r.steps, r.guarded, u_max / sqrt_gH, T_u, r.p_min / r.rho_g_h,
                   r.min_pair_ratio, wall);
       std::fflush(stdout);

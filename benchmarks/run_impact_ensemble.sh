@@ -34,5 +34,5 @@ missing=""
 for L in $spacings; do [ -s "$out/$tag.d/$L.csv" ] || missing="$missing $L"; done
 if [ -n "$missing" ]; then echo "run_impact_ensemble.sh: no row for L =$missing mm (see $out/$tag.d)" >&2; exit 1; fi
 rm -r "$out/$tag.d"
-awk -F, -v tag="$tag" 'NR > 1 { n++; ok += $6; s = s sprintf(" %s:%s", $5, $6 ? "ok" : sprintf("F%.2f", $7)) }
+awk -F, -v tag="$tag" 'NR > 1 { n++; ok += $9; s = s sprintf(" %s:%s", $8, $9 ? "ok" : sprintf("F%.2f", $10)) }
   END { printf "%s: %d of %d reached T_end;%s\n", tag, ok, n, s }' "$out/$tag.csv"

@@ -117,7 +117,7 @@ struct no_tanaka_observer {
 };
 
 /// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g, Δt_max =
-/// 0.1 L / √(2 g H) and the blow-up bound max_speed = max_speed_factor √(g H) are set from the case. With
+/// α_C L / √(2 g H) (α_C = p.time.courant, Tanaka's 0.1 by default) and the blow-up bound max_speed = max_speed_factor √(g H) are set from the case. With
 /// catch_failure an mpskit::error ends the run and is recorded (the reporter's failed configurations);
 /// otherwise it propagates. `observe(sim)` is called after every step
 /// (output, progress).
@@ -132,7 +132,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   s0.template get<field::volume>().setConstant(c.L * c.L);
   p.nu = c.mu / c.rho;
   p.g << 0.0, -c.g;
-  p.time.dt_max = 0.1 * c.L / std::sqrt(2.0 * c.g * c.column_height);
+  p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);
   p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
   simulation<Scene> sim(p, std::move(s0), &db.walls);
   tanaka_dam_break_result r;
