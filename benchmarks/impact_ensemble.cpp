@@ -26,30 +26,10 @@
 #include <vector>
 
 #include "cases/tanaka_dam_break_run.hpp"
+#include "reporter.hpp"
 
 using namespace mpskit;
 
-namespace {
-std::vector<double> parse_list(const char* s) {
-  std::vector<double> v;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    char* end = nullptr;
-    const double x = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !(x > 0.0) || !std::isfinite(x))
-      fail("bench_impact_ensemble: --L entry '", item, "' is not a spacing > 0 in mm");
-    v.push_back(x);
-  }
-  return v;
-}
-double parse_number(const char* name, const char* s, double lo) {
-  char* end = nullptr;
-  const double x = std::strtod(s, &end);
-  if (*end != '\0' || !(x >= lo)) fail("bench_impact_ensemble: ", name, " '", s, "': must be a number >= ", lo);
-  return x;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   try {
@@ -59,15 +39,15 @@ int main(int argc, char** argv) {
     bool header = false;
     for (int a = 1; a < argc; ++a) {
       const bool v = a + 1 < argc;
-      if (!std::strcmp(argv[a], "--L") && v) spacings = parse_list(argv[++a]);
-      else if (!std::strcmp(argv[a], "--T") && v) T_end = parse_number("--T", argv[++a], 1e-9);
+      if (!std::strcmp(argv[a], "--L") && v) spacings = bench::parse_numbers("--L (mm)", argv[++a], 1e-6);
+      else if (!std::strcmp(argv[a], "--T") && v) T_end = bench::parse_number("--T", argv[++a], 1e-9);
       else if (!std::strcmp(argv[a], "--walls") && v) walls_name = argv[++a];
-      else if (!std::strcmp(argv[a], "--bound") && v) bound = parse_number("--bound", argv[++a], 1.0);
-      else if (!std::strcmp(argv[a], "--taper") && v) taper = parse_number("--taper", argv[++a], 1.0);
-      else if (!std::strcmp(argv[a], "--max-condition") && v) max_condition = parse_number("--max-condition", argv[++a], 1.0);
-      else if (!std::strcmp(argv[a], "--courant") && v) courant = parse_number("--courant", argv[++a], 1e-6);
-      else if (!std::strcmp(argv[a], "--filter-strength") && v) filter_eps = parse_number("--filter-strength", argv[++a], 0.0);
-      else if (!std::strcmp(argv[a], "--shift-limit") && v) shift_limit = parse_number("--shift-limit", argv[++a], 1e-9);
+      else if (!std::strcmp(argv[a], "--bound") && v) bound = bench::parse_number("--bound", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--taper") && v) taper = bench::parse_number("--taper", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--max-condition") && v) max_condition = bench::parse_number("--max-condition", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--courant") && v) courant = bench::parse_number("--courant", argv[++a], 1e-6);
+      else if (!std::strcmp(argv[a], "--filter-strength") && v) filter_eps = bench::parse_number("--filter-strength", argv[++a], 0.0);
+      else if (!std::strcmp(argv[a], "--shift-limit") && v) shift_limit = bench::parse_number("--shift-limit", argv[++a], 1e-9);
       else if (!std::strcmp(argv[a], "--header")) header = true;
       else fail("bench_impact_ensemble: unexpected argument '", argv[a], "' (see the file's comment for the usage)");
     }

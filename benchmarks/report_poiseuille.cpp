@@ -116,14 +116,6 @@ bench::configuration make(bool pressure, double L_mm, double t_end) {
   return b;
 }
 
-std::vector<double> parse_list(const std::string& s) {
-  std::vector<double> v;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, ',')) v.push_back(std::atof(item.c_str()));
-  return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) try {
@@ -134,9 +126,9 @@ int main(int argc, char** argv) try {
   std::string out = "benchmarks/results";
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
-    if (k == "--levels") levels = parse_list(v);
-    else if (k == "--repetitions") reps = std::atoi(v.c_str());
-    else if (k == "--t-end") t_end = std::atof(v.c_str());
+    if (k == "--levels") levels = bench::parse_numbers("--levels", v, 1e-9);
+    else if (k == "--repetitions") reps = bench::parse_integer("--repetitions", v, 1);
+    else if (k == "--t-end") t_end = bench::parse_number("--t-end", v, 1e-12);
     else if (k == "--out") out = v;
     else if (k == "--multires") multires = v == "1" || v == "on";
     else if (k == "--cases") {

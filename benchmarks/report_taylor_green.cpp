@@ -50,14 +50,6 @@ bench::configuration make(int order, int n, double t_end) {
   return c;
 }
 
-std::vector<int> parse_list(const std::string& s) {
-  std::vector<int> v;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, ',')) v.push_back(std::atoi(item.c_str()));
-  return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) try {
@@ -67,10 +59,10 @@ int main(int argc, char** argv) try {
   std::string out = "benchmarks/results";
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
-    if (k == "--levels") levels = parse_list(v);
-    else if (k == "--orders") orders = parse_list(v);
-    else if (k == "--repetitions") reps = std::atoi(v.c_str());
-    else if (k == "--t-end") t_end = std::atof(v.c_str());
+    if (k == "--levels") levels = bench::parse_integers("--levels", v, 2);
+    else if (k == "--orders") orders = bench::parse_integers("--orders", v, 1);
+    else if (k == "--repetitions") reps = bench::parse_integer("--repetitions", v, 1);
+    else if (k == "--t-end") t_end = bench::parse_number("--t-end", v, 1e-12);
     else if (k == "--out") out = v;
     else fail("report_taylor_green: unknown option '", k, "'");
   }

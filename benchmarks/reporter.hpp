@@ -68,6 +68,40 @@ inline double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/// A number >= lo from a command-line value; mpskit::error naming `what` otherwise (no silent atof zero).
+inline double parse_number(const char* what, const std::string& s, double lo) {
+  char* end = nullptr;
+  const double x = std::strtod(s.c_str(), &end);
+  if (s.empty() || *end != '\0' || !(x >= lo) || !std::isfinite(x))
+    fail(what, " '", s, "': must be a finite number >= ", lo);
+  return x;
+}
+
+/// A comma-separated list of numbers >= lo ("3,3.5,4"); mpskit::error naming `what` and the bad entry otherwise.
+inline std::vector<double> parse_numbers(const char* what, const std::string& s, double lo) {
+  std::vector<double> v;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');) v.push_back(parse_number(what, item, lo));
+  if (v.empty()) fail(what, ": an empty list");
+  return v;
+}
+
+/// A whole number >= lo; mpskit::error naming `what` otherwise.
+inline int parse_integer(const char* what, const std::string& s, int lo) {
+  const double x = parse_number(what, s, lo);
+  if (x != std::floor(x) || x > 1e9) fail(what, " '", s, "': must be a whole number");
+  return static_cast<int>(x);
+}
+
+/// A comma-separated list of whole numbers >= lo ("25,50"); mpskit::error naming `what` and the bad entry otherwise.
+inline std::vector<int> parse_integers(const char* what, const std::string& s, int lo) {
+  std::vector<int> v;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');) v.push_back(parse_integer(what, item, lo));
+  if (v.empty()) fail(what, ": an empty list");
+  return v;
+}
+
 /// Options of the own-main timing benchmarks: --repetitions R (≥ 1) and --t-end T (s, > 0), plus any `extra`
 /// options taking one value (their values land in `extra_values`, by name). Returns false after printing the
 /// reason to stderr (`program` names it) on an unknown or incomplete option or a bad value.
