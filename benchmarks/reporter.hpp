@@ -86,19 +86,21 @@ inline std::vector<double> parse_numbers(const char* what, const std::string& s,
   return v;
 }
 
+/// x as an int; mpskit::error naming `what` when x is not a whole number.
+inline int whole_number(const char* what, double x) {
+  if (x != std::floor(x) || std::abs(x) > 1e9) fail(what, ": ", x, " is not a whole number");
+  return static_cast<int>(x);
+}
+
 /// A whole number >= lo; mpskit::error naming `what` otherwise.
 inline int parse_integer(const char* what, const std::string& s, int lo) {
-  const double x = parse_number(what, s, lo);
-  if (x != std::floor(x) || x > 1e9) fail(what, " '", s, "': must be a whole number");
-  return static_cast<int>(x);
+  return whole_number(what, parse_number(what, s, lo));
 }
 
 /// A comma-separated list of whole numbers >= lo ("25,50"); mpskit::error naming `what` and the bad entry otherwise.
 inline std::vector<int> parse_integers(const char* what, const std::string& s, int lo) {
   std::vector<int> v;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');) v.push_back(parse_integer(what, item, lo));
-  if (v.empty()) fail(what, ": an empty list");
+  for (const double x : parse_numbers(what, s, lo)) v.push_back(whole_number(what, x));
   return v;
 }
 
