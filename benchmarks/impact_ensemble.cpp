@@ -12,8 +12,8 @@
 // --bound / --taper: regularize::boundary_filter_params::max_amplification / taper_amplification (default inf);
 // --max-condition: op::lsmps_params::max_condition (default 1e8); --courant: time_step_params::courant α_C (default
 // Tanaka's 0.1; the runner's Δt_max = α_C L / √(2 g H) follows it); --filter-strength: the boundary filter's ε per
-// step (default 0.05); --shift-limit: the shifting's α_S of eq. 100, |δx| ≤ α_S L per step (default Tanaka's 0.01). The blow-up bound is the case's, max |u| ≤
-// 50 √(gH). benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
+// step (default 0.05); --shift-limit: the shifting's α_S of eq. 100, |δx| ≤ α_S L per step (default Tanaka's
+// 0.01). The blow-up bound is the case's, max |u| ≤ 50 √(gH). benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,7 +21,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -30,11 +29,11 @@
 
 using namespace mpskit;
 
-
 int main(int argc, char** argv) {
   try {
     std::vector<double> spacings;
-    double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0, courant = 0.1, filter_eps = 0.05, shift_limit = 0.01;
+    double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0;
+    double courant = 0.1, filter_eps = 0.05, shift_limit = 0.01;
     std::string walls_name = "two_point_wall_only_active_set";
     bool header = false;
     for (int a = 1; a < argc; ++a) {
@@ -52,8 +51,8 @@ int main(int argc, char** argv) {
       else fail("bench_impact_ensemble: unexpected argument '", argv[a], "' (see the file's comment for the usage)");
     }
     if (header)
-      std::printf("walls,bound,taper,max_condition,courant,filter_strength,shift_limit,L_mm,reached,T_last,steps,guarded,max_u_sqrt_gH,T_max_u,p_min_rho_g_H,"
-                  "min_pair_ratio,wall_s\n");
+      std::printf("walls,bound,taper,max_condition,courant,filter_strength,shift_limit,L_mm,reached,T_last,steps,guarded,"
+                  "max_u_sqrt_gH,T_max_u,p_min_rho_g_H,min_pair_ratio,wall_s\n");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
     for (const double L_mm : spacings) {
       cases::tanaka_dam_break_config c;

@@ -72,8 +72,11 @@ inline double median(std::vector<double> v) {
 inline double parse_number(const char* what, const std::string& s, double lo) {
   char* end = nullptr;
   const double x = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !(x >= lo) || !std::isfinite(x))
-    fail(what, " '", s, "': must be a finite number >= ", lo);
+  if (s.empty() || *end != '\0' || !(x >= lo) || !std::isfinite(x)) {
+    char bound[32];
+    std::snprintf(bound, sizeof bound, "%g", lo);
+    fail(what, " '", s, "': must be a finite number >= ", bound);
+  }
   return x;
 }
 

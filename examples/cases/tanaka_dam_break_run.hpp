@@ -116,8 +116,25 @@ struct no_tanaka_observer {
   void operator()(const Sim&) const {}
 };
 
-/// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); ν, g, Δt_max =
-/// α_C L / √(2 g H) (α_C = p.time.courant, Tanaka's 0.1 by default) and the blow-up bound max_speed = max_speed_factor √(g H) are set from the case. With
+/// The column at rest: positions, zero velocity, volume L² (2D).
+inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config& c, const tanaka_dam_break& db) {
+  scheme::lsmps_state<2> s0(db.size());
+  s0.x() = db.x;
+  s0.u().setZero();
+  s0.template get<field::volume>().setConstant(c.L * c.L);
+  return s0;
+}
+/// The case's part of the scheme options: ν, g, Δt_max = α_C L / √(2 g H) (α_C = p.time.courant, Tanaka's 0.1 by
+/// default) and the blow-up bound max_speed = max_speed_factor √(g H).
+inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<2>& p) {
+  p.nu = c.mu / c.rho;
+  p.g << 0.0, -c.g;
+  p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);
+  p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
+}
+
+/// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); the case sets the rest
+/// (set_tanaka_case_params). With
 /// catch_failure an mpskit::error ends the run and is recorded (the reporter's failed configurations);
 /// otherwise it propagates. `observe(sim)` is called after every step
 /// (output, progress).
@@ -126,15 +143,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
                                              scheme::lsmps_params<2> p = {}, bool catch_failure = false,
                                              Observer&& observe = {}) {
   const auto db = make_tanaka_dam_break(c);
-  scheme::lsmps_state<2> s0(db.size());
-  s0.x() = db.x;
-  s0.u().setZero();
-  s0.template get<field::volume>().setConstant(c.L * c.L);
-  p.nu = c.mu / c.rho;
-  p.g << 0.0, -c.g;
-  p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);
-  p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
-  simulation<Scene> sim(p, std::move(s0), &db.walls);
+  set_tanaka_case_params(c, p);
+  simulation<Scene> sim(p, tanaka_initial_state(c, db), &db.walls);
   tanaka_dam_break_result r;
   r.rho_g_h = c.rho * c.g * c.column_height;
   r.particles = db.size();
