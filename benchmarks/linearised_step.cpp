@@ -1,25 +1,27 @@
 // The linearised step at snapshots of a running case (docs/lsmps_scheme.md "Stability of the projection", "On
 // a running dam break"): Tanaka's dam break (cases/tanaka_dam_break_run.hpp) is run with the given wall variant
-// to each snapshot time T; there the real particles are taken as they are, and the Jacobian J of one step's
-// velocity map u^n → u^{n+1} (positions, flags and Δt frozen at the snapshot's) is built column by column: one
-// two steps per unit perturbation of one velocity component (central differences, ε = 1e-6 m/s against speeds of 0.1–3 m/s; the det F
-// source is quadratic in ∇u′ beyond the linear term) with UMFPACK so that the
-// difference is not the iterative solver's tolerance. An eigenvalue |λ| > 1 of J is a velocity mode that one step
-// amplifies. tests/test_projection.cpp does the same about a state at rest (label projection_stability); this
-// tool does it on a moving, irregular state, where the dam break fails.
+// to each snapshot; there the real particles are taken as they are, and the Jacobian J of one step's velocity map
+// u^n → u^{n+1} (positions, flags and Δt frozen at the snapshot's) is built column by column by central
+// differences: two steps per unit perturbation ±ε of one velocity component (ε = 1e-6 m/s against speeds of
+// 0.1–3 m/s; the det F source is quadratic in ∇u′ beyond the linear term), with UMFPACK so that the difference is
+// not the iterative solver's tolerance. An eigenvalue |λ| > 1 of J is a velocity mode that one step amplifies.
+// tests/test_projection.cpp does the same about a state at rest (label projection_stability); this tool does it
+// on a moving, irregular state, where the dam break fails.
 //
 //   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_linearised_step --L 6 (--T 0.5,1,3 | --before 8,4,2 [--T-end 3.2])
 //       [--walls NAME] [--courant A] [--modes K] [--filter-strength EPS] [--header]
 //
-// --T: snapshots at these times T = t √(2g/h0). --before: the run goes on to T-end (default 3.2) and, when it fails
-// (the blow-up bound or any other mpskit::error), the snapshots are the states these many steps before the failing
-// step (kept in a ring buffer); a run that does not fail prints nothing.
+// --T: snapshots at the first step ending at or after these times T = t √(2g/h0), with that step's Δt. --before:
+// the run goes on to T-end (default 3.2) and, when it fails (the blow-up bound or any other mpskit::error), the
+// snapshots are the states these many steps before the failing step (1: the start of the last step that
+// completed; kept in a ring buffer), each with the Δt of the step that followed it; a run that does not fail
+// prints nothing.
 //
 // One CSV row per snapshot and mode (the K largest |λ|): the mode's dominant particle (largest share of the
 // eigenvector's squared norm), its position, packing ratio, surface flag, distance to the nearest wall (inf: none
-// within 10 L), and the
-// largest |eigenvalue| of its own 2×2 block of J (the loop through its own velocity alone). Cost: 2n steps and a
-// dense eigenvalue problem of size 2n per snapshot (6 mm, n = 561: ≈ 20 s on one core).
+// within 10 L), the largest |eigenvalue| of its own 2×2 block of J (the loop through its own velocity alone) and
+// the number of kinked columns (below). Cost: 4n steps and a dense eigenvalue problem of size 2n per snapshot
+// (6 mm, n = 561: ≈ 40 s on one core).
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
