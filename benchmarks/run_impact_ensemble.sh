@@ -34,5 +34,7 @@ missing=""
 for L in $spacings; do [ -s "$out/$tag.d/$L.csv" ] || missing="$missing $L"; done
 if [ -n "$missing" ]; then echo "run_impact_ensemble.sh: no row for L =$missing mm (see $out/$tag.d)" >&2; exit 1; fi
 rm -r "$out/$tag.d"
-awk -F, -v tag="$tag" 'NR > 1 { n++; ok += $9; s = s sprintf(" %s:%s", $8, $9 ? "ok" : sprintf("F%.2f", $10)) }
+# columns found by their header names (the CSV gained columns before; positions would silently shift)
+awk -F, -v tag="$tag" 'NR == 1 { for (k = 1; k <= NF; k++) col[$k] = k; next }
+  { n++; ok += $col["reached"]; s = s sprintf(" %s:%s", $col["L_mm"], $col["reached"] ? "ok" : sprintf("F%.2f", $col["T_last"])) }
   END { printf "%s: %d of %d reached T_end;%s\n", tag, ok, n, s }' "$out/$tag.csv"
