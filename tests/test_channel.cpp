@@ -846,7 +846,9 @@ void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_co
                              c.pinned_components, c.isolated, c.copies, c.small_diameter_events, c.guarded,
                              c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
                              c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
-                             c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind};
+                             c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
+                             c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
+                             c.own_loop_solves};
   };
   CHECK(v(a) == v(b));
   CHECK(std::bit_cast<std::uint64_t>(a.inflow_volume) == std::bit_cast<std::uint64_t>(b.inflow_volume));
@@ -1017,7 +1019,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 26 values, or of 24 and 25 (older files), the missing ones read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 30 values, or of 24 to 29 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1040,31 +1042,45 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 26);
-    v[24] = 7;  // filter_amplifying
-    v[25] = 9;  // filter_tapered, the last value
+    REQUIRE(v.size() == 30);
+    v[24] = 7;   // filter_amplifying
+    v[25] = 9;   // filter_tapered
+    v[26] = 11;  // own_loop_checked
+    v[27] = 12;  // own_loop_dirichlet
+    v[28] = 13;  // own_loop_one_point
+    v[29] = 14;  // own_loop_solves, the last value
+    const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("26.mpscp", v), b);
+    io::load_simulation(write("30.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
+    CHECK(b.counters().own_loop_checked == 11);
+    CHECK(b.counters().own_loop_dirichlet == 12);
+    CHECK(b.counters().own_loop_one_point == 13);
+    CHECK(b.counters().own_loop_solves == 14);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
+    md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("26.mpscp", head(26)), b26);
+    CHECK(b26.counters().filter_tapered == 9);
+    CHECK(b26.counters().own_loop_checked == 0);
+    CHECK(b26.counters().own_loop_solves == 0);
     md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("25.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 1)), b25);
+    io::load_simulation(write("25.mpscp", head(25)), b25);
     CHECK(b25.counters().filter_amplifying == 7);
     CHECK(b25.counters().filter_tapered == 0);
     md_sim d(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("24.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 2)), d);
+    io::load_simulation(write("24.mpscp", head(24)), d);
     CHECK(d.counters().filter_amplifying == 0);
     CHECK(d.counters().filter_tapered == 0);
     CHECK(d.counters().outflow_behind == a.counters().outflow_behind);
     CHECK(d.counters().steps == 1);
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", std::vector<std::int64_t>(v.begin(), v.end() - 3)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 26"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 30"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("27.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 27 values, expected 26"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("31.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 31 values, expected 30"), mpskit::error);
   }
 }

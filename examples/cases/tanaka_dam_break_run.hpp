@@ -35,6 +35,9 @@ struct tanaka_dam_break_result {
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
   long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
   long filter_amplifying = 0, filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
+  /// own-loop guard (lsmps_params::own_loop): particle-steps checked, made p = 0, with copies' two-point term
+  /// dropped; repeated solves
+  long own_loop_checked = 0, own_loop_dirichlet = 0, own_loop_one_point = 0, own_loop_solves = 0;
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -68,7 +71,8 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 /// The wall options the dam-break runs compare (docs/lsmps_scheme.md): parent_gradient (the library's
 /// defaults), neumann_points (copy_row = neumann_points, deviation 11), two_point_wall_only (copy_two_point = 1
 /// and shift.projection = wall_only), two_point_wall_only_active_set (the same with active_set_solves = 10,
-/// deviation 13) and neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
+/// deviation 13), two_point_wall_only_active_set_own_loop (the same with the own-loop guard, deviation 15) and
+/// neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
 /// configuration of the main example, examples/multires_dam_break.cpp). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
 struct tanaka_wall_variant {
   std::string name;   ///< as given on a command line
@@ -91,6 +95,13 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
        [](scheme::lsmps_params<2>& p) {
          two_point_wall_only(p);
          p.active_set_solves = 10;
+       }},
+      {"two_point_wall_only_active_set_own_loop", "-tpo",
+       ", two-point rows + wall-only shifting + active set + own-loop guard",
+       [](scheme::lsmps_params<2>& p) {
+         two_point_wall_only(p);
+         p.active_set_solves = 10;
+         p.own_loop.enabled = true;
        }},
       {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {
@@ -197,6 +208,10 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.ppe_iterations = sim.counters().ppe_iterations;
   r.active_set_rows = sim.counters().active_set_rows;
   r.active_set_unfinished = sim.counters().active_set_unfinished;
+  r.own_loop_checked = sim.counters().own_loop_checked;
+  r.own_loop_dirichlet = sim.counters().own_loop_dirichlet;
+  r.own_loop_one_point = sim.counters().own_loop_one_point;
+  r.own_loop_solves = sim.counters().own_loop_solves;
   return r;
 }
 

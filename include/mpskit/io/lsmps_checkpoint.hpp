@@ -40,11 +40,11 @@ inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counte
           c.copies, c.small_diameter_events, c.guarded, c.shift_limited, c.degenerate, c.negative_clamped,
           c.wrong_sign_rows, c.active_set_rows, c.active_set_solves, c.active_set_unfinished, c.list_builds,
           c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
-          c.filter_tapered};
+          c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point, c.own_loop_solves};
 }
-inline constexpr std::size_t lsmps_counter_count = 26;
-/// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01):
-/// still read, the missing counters 0.
+inline constexpr std::size_t lsmps_counter_count = 30;
+/// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01)
+/// or before the own-loop guard's four (26–29, 2026-12-02): still read, the missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 
@@ -131,7 +131,8 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
                     &c.isolated, &c.copies, &c.small_diameter_events, &c.guarded, &c.shift_limited, &c.degenerate,
                     &c.negative_clamped, &c.wrong_sign_rows, &c.active_set_rows, &c.active_set_solves,
                     &c.active_set_unfinished, &c.list_builds, &c.reorders, &c.filtered, &c.splits, &c.merges,
-                    &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying, &c.filter_tapered};
+                    &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying, &c.filter_tapered,
+                    &c.own_loop_checked, &c.own_loop_dirichlet, &c.own_loop_one_point, &c.own_loop_solves};
   static_assert(sizeof(fields) / sizeof(fields[0]) == detail::lsmps_counter_count);
   for (std::size_t k = 0; k < cv.size(); ++k) *fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];

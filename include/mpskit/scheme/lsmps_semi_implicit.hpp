@@ -49,6 +49,8 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include "mpskit/boundary/pressure.hpp"
@@ -155,6 +157,35 @@ enum class copy_neumann_velocity {
   parent    ///< the parent's own u′ (the copy is its parent's projection on the wall)
 };
 
+/// The own-loop guard (ours, opt-in; docs/lsmps_scheme.md deviation 15). After the PPE solve, each checked
+/// particle i gets the D×D block B_i = ∂u_i^{n+1}/∂u′_i of the projection (stages 8–9 linearised at this step's
+/// solution: its own predicted velocity through every PPE row it enters, its copies' wall data and the
+/// correction's gradient at i). ρ(B_i) > 1 is a loop through the particle's own velocity that one step
+/// amplifies; on Tanaka's dam break every failure measured with benchmarks/linearised_step.cpp began as one
+/// (2.5–67× per step at one sparse particle beside a wall), while elsewhere ρ(B_i) ≤ 1.02. δp is solved on a
+/// patch (the unknowns within patch_radius·R_e,i of i, δp = 0 outside, dense LU), which matched the full
+/// Jacobian's block to 4 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7; measured).
+/// Where ρ(B_i) > max_gain: a non-surface particle becomes a Dirichlet p = 0 row for the step (as the active
+/// set's particles: no own pressure, no own loop), a surface particle's copies lose the two-point term of
+/// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0); the PPE is
+/// solved again and checked again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
+struct own_loop_guard_params {
+  bool enabled = false;            ///< off: Tanaka's scheme (and every earlier result) unchanged
+  double max_gain = 1.1;           ///< ρ(B_i) above which the fallback acts (the patch estimate reads up to
+                                   ///< 0.05 above the full step's block, which the velocity filter damps;
+                                   ///< below 1 it marks decaying loops too, for experiments). Accepted: [0, 1e6]
+  double candidate_packing = 0.7;  ///< non-surface particles with packing ratio c < this are checked (the
+                                   ///< failing ones had c = 0.40–0.58; c ≈ 1 inside)
+  double patch_radius = 1.5;       ///< patch radius in units of the particle's R_e
+  int rounds = 3;                  ///< checks per step, each followed by a solve when a fallback acted
+  void validate() const {
+    validator v("own_loop_guard_params");
+    v.in_range("max_gain", max_gain, 0.0, 1e6).in_range("candidate_packing", candidate_packing, 0.0, 1e3);
+    v.in_range("patch_radius", patch_radius, 1.0, 1e3).in_range("rounds", rounds, 1, 100);
+    v.throw_if_any();
+  }
+};
+
 /// Runtime numbers of the LSMPS scheme, with Tanaka 2018's defaults (Table 2).
 template <int D>
 struct lsmps_params {
@@ -208,6 +239,7 @@ struct lsmps_params {
   /// particle joining it only drops its row and its column, and its p = 0 moves nothing to the right-hand
   /// sides). false rebuilds every row for every repeat: the reference path, bitwise the same (tested).
   bool active_set_reuse_rows = true;
+  own_loop_guard_params own_loop{};   ///< the own-loop guard (ours, opt-in; see the struct)
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
   search::domain<D> domain{};           ///< periodic axes
@@ -244,6 +276,7 @@ struct lsmps_params {
     guard.validate();
     shift.validate();
     boundary_filter.validate();
+    own_loop.validate();
     time.validate();
     solver.validate();
     domain.validate();
@@ -268,6 +301,10 @@ struct lsmps_counters {
   long active_set_rows = 0;        ///< fluid particles made p = 0 rows by the active set (particle-steps)
   long active_set_solves = 0;      ///< PPE solves repeated by the active set (summed over steps)
   long active_set_unfinished = 0;  ///< steps whose last allowed solve still left a fluid pressure < 0 (kept)
+  long own_loop_checked = 0;       ///< particle-steps whose own-loop block was computed (own_loop_guard_params)
+  long own_loop_dirichlet = 0;     ///< particle-steps made p = 0 rows by the own-loop guard
+  long own_loop_one_point = 0;     ///< particle-steps whose copies lost the two-point term (own-loop guard)
+  long own_loop_solves = 0;        ///< PPE solves repeated by the own-loop guard
   long list_builds = 0;            ///< neighbour-list builds
   long reorders = 0;               ///< cell reorders
   long filtered = 0;               ///< particle-steps filtered in the one-sided band (boundary_filter)
@@ -378,7 +415,8 @@ class lsmps_semi_implicit {
                            c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
                            c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
                            c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
-                           c.filter_tapered};
+                           c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
+                           c.own_loop_solves};
     for (long v : counts)
       if (v < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", v, ")");
     if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
@@ -415,6 +453,9 @@ class lsmps_semi_implicit {
   /// (splits, merges, inflow, outflow) entry i is no longer state() particle i. The same holds for normals(),
   /// neighbours(), op() and diameter(i).
   const Eigen::VectorXd& packing_ratio() const { return c_pack_; }
+  /// ρ(B_i) of the own-loop guard's last check this step, per real particle (NaN where not checked; empty when
+  /// the guard is off). See own_loop_guard_params.
+  const Eigen::VectorXd& own_loop_gains() const { return own_loop_gain_; }
   const points<D>& normals() const { return normal_; }  ///< normals of the last step (its order: packing_ratio())
   const time_step_controller& time_step() const { return dt_ctrl_; }  ///< Δt controller
   /// Split/merge ledger (Scene::resolution): one closed step per step() call.
@@ -933,17 +974,137 @@ class lsmps_semi_implicit {
     }
   }
 
-  /// 8. The PPE, with the active set of lsmps_params::active_set_solves (p ≥ 0; ours, docs/lsmps_scheme.md
-  /// deviation 13): particles whose solved pressure is negative join the set (Dirichlet p = 0) and the system
+  /// 8. The PPE: solve_pressure_with_set, then, with lsmps_params::own_loop, the own-loop guard's checks, each
+  /// followed by a new solve when it marked a particle.
+  void solve_pressure(double dt) {
+    if (!p_.own_loop.enabled) {
+      solve_pressure_with_set(dt);
+      return;
+    }
+    const std::size_t n = static_cast<std::size_t>(s_.n_real());
+    own_loop_dirichlet_.assign(n, 0);
+    own_loop_one_point_.assign(n, 0);
+    own_loop_gain_.setConstant(static_cast<index_t>(n), std::numeric_limits<double>::quiet_NaN());
+    solve_pressure_with_set(dt);
+    for (int k = 0; k < p_.own_loop.rounds && own_loop_check(dt) > 0; ++k) {
+      ++c_.own_loop_solves;
+      solve_pressure_with_set(dt);
+    }
+  }
+
+  /// The own-loop guard's check (own_loop_guard_params; ours, docs/lsmps_scheme.md deviation 15) on the PPE
+  /// just solved: for each candidate i, B_i = I − (Δt/ρ) ∂⟨∇p⟩_i/∂u′_i with δp from the patch system
+  /// A_PP δp = δr_P, δr the change of the rows' residuals b − A p when u′_i (and the wall data of i's copies,
+  /// which carry u′_i: copy_neumann = parent) moves by ε along each axis, every row rebuilt (the det F rows'
+  /// coefficients depend on ∇u′ too). Marks the fallbacks where ρ(B_i) > max_gain; returns their number.
+  index_t own_loop_check(double dt) {
+    const index_t n = s_.n_real(), nt = s_.size();
+    const points<D>& x = s_.x();
+    const auto& pres = s_.template get<field::pressure>();
+    if (rows_.empty()) return 0;
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    const bool one_point_fallback = p_.copy_two_point > 0.0 && p_.copy_row == copy_row_kind::parent_gradient;
+    const auto known = [this](index_t j) { return unk_[static_cast<std::size_t>(j)] == npos; };
+    // copies of particle i: [n + first[i], n + first[i + 1]) (make_imaginary groups them by parent)
+    std::vector<index_t> first(static_cast<std::size_t>(n) + 1, 0);
+    for (index_t k = n; k < nc_; ++k) ++first[static_cast<std::size_t>(parent(k)) + 1];
+    for (index_t i = 0; i < n; ++i) first[static_cast<std::size_t>(i) + 1] += first[static_cast<std::size_t>(i)];
+    std::vector<index_t> marked;
+    std::vector<index_t> at(static_cast<std::size_t>(nt), npos), patch;
+    Eigen::VectorXd dp_field = Eigen::VectorXd::Zero(nt);
+    op::row_entries row;
+    for (index_t i = 0; i < n; ++i) {
+      const std::size_t si = static_cast<std::size_t>(i);
+      if (!participates(i) || own_loop_dirichlet_[si] || own_loop_one_point_[si]) continue;
+      const index_t k0 = n + first[si], k1 = n + first[si + 1];
+      bool candidate = false;
+      if (!surface_[si]) {
+        candidate = !known(i) && c_pack_[i] < p_.own_loop.candidate_packing;
+      } else if (one_point_fallback) {
+        for (index_t k = k0; k < k1; ++k) candidate = candidate || !known(k);
+      }
+      if (!candidate) continue;
+      ++c_.own_loop_checked;
+      // The patch: the unknowns within patch_radius R_e,i of i (a scan of the rows: O(m) per candidate, small
+      // beside the rows' rebuilds; a copy is an unknown at its wall point).
+      const double R = p_.own_loop.patch_radius * re(i);
+      patch.clear();
+      for (const index_t j : rows_)
+        if ((x.col(j) - x.col(i)).squaredNorm() <= R * R) {
+          at[static_cast<std::size_t>(j)] = static_cast<index_t>(patch.size());
+          patch.push_back(j);
+        }
+      const index_t mp = static_cast<index_t>(patch.size());
+      mat<D> B = mat<D>::Identity();
+      if (mp > 0) {
+        Eigen::MatrixXd Ap = Eigen::MatrixXd::Zero(mp, mp);
+        Eigen::VectorXd res0(mp);
+        for (index_t q = 0; q < mp; ++q) {
+          const index_t j = patch[static_cast<std::size_t>(q)];
+          for (ppe::matrix::InnerIterator it(A_, unk_[static_cast<std::size_t>(j)]); it; ++it) {
+            const index_t c = at[static_cast<std::size_t>(rows_[static_cast<std::size_t>(it.col())])];
+            if (c != npos) Ap(q, c) = it.value();
+          }
+          const double b = build_ppe_row(j, dt, row);
+          res0[q] = b - row.apply(pres) + row.constant();
+        }
+        const Eigen::PartialPivLU<Eigen::MatrixXd> lu(Ap);
+        const double eps = 1e-6 * L_[i] / dt;  // ≈ 1e-6 of a particle's width per step
+        Eigen::VectorXd dr(mp);
+        for (int a = 0; a < D; ++a) {
+          const auto perturb = [&](double e) {
+            ut_(a, i) += e;
+            comp_[a][i] += e;
+            for (index_t k = k0; k < k1; ++k) {
+              if (p_.copy_neumann == copy_neumann_velocity::parent) ut_(a, k) += e;
+              if (p_.copy_velocity != copy_velocity_in_source::wall) comp_[a][k] = ut_(a, k);
+              dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
+            }
+          };
+          perturb(eps);
+          for (index_t q = 0; q < mp; ++q) {
+            const double b = build_ppe_row(patch[static_cast<std::size_t>(q)], dt, row);
+            dr[q] = (b - row.apply(pres) + row.constant() - res0[q]) / eps;
+          }
+          perturb(-eps);
+          const Eigen::VectorXd dp = lu.solve(dr);
+          for (index_t q = 0; q < mp; ++q) dp_field[patch[static_cast<std::size_t>(q)]] = dp[q];
+          B.col(a) -= dt / p_.rho * pressure_op().gradient(x, nl_, i, dp_field, participates);
+          for (index_t q = 0; q < mp; ++q) dp_field[patch[static_cast<std::size_t>(q)]] = 0.0;
+        }
+        for (const index_t j : patch) at[static_cast<std::size_t>(j)] = npos;
+      }
+      const double gain = Eigen::EigenSolver<mat<D>>(B, false).eigenvalues().cwiseAbs().maxCoeff();
+      own_loop_gain_[i] = gain;
+      if (gain > p_.own_loop.max_gain) marked.push_back(i);
+    }
+    // Marked after the sweep: every block of this round is computed on the same solved system.
+    for (const index_t i : marked) {
+      if (surface_[static_cast<std::size_t>(i)]) {
+        own_loop_one_point_[static_cast<std::size_t>(i)] = 1;
+        ++c_.own_loop_one_point;
+      } else {
+        own_loop_dirichlet_[static_cast<std::size_t>(i)] = 1;
+        ++c_.own_loop_dirichlet;
+      }
+    }
+    return static_cast<index_t>(marked.size());
+  }
+
+  /// The PPE with the own-loop guard's p = 0 rows and the active set of lsmps_params::active_set_solves (p ≥ 0;
+  /// ours, docs/lsmps_scheme.md deviation 13): particles whose solved pressure is negative join the set (Dirichlet p = 0) and the system
   /// is built and solved again. A primal active-set iteration for the complementarity problem p ≥ 0 of
   /// Miyamoto & Koshizuka (arXiv:2302.14245, an MPS-family method with the incompressibility constraint as an
   /// LCP) without its release step: the set only grows within a step (with releases, particles compressed at
   /// p = 0 leaving the set, the dam break failed earlier: measured, docs/lsmps_scheme.md). The repeats reuse
   /// the first build's rows (active_set_reuse_rows; 1.41× → 1.23× the wall time without the set at 4 mm).
-  void solve_pressure(double dt) {
+  void solve_pressure_with_set(double dt) {
     const index_t n = s_.n_real();
     auto& pres = s_.template get<field::pressure>();
     active_set_.assign(static_cast<std::size_t>(s_.size()), 0);
+    if (p_.own_loop.enabled)
+      for (index_t i = 0; i < n; ++i)
+        if (own_loop_dirichlet_[static_cast<std::size_t>(i)]) active_set_[static_cast<std::size_t>(i)] = 1;
     for (int repeat = 0;; ++repeat) {
       if (repeat == 0 || !p_.active_set_reuse_rows) solve_pressure_once(dt);
       else if (drop_active_set_rows() > 0) assemble_and_solve();
@@ -963,6 +1124,61 @@ class lsmps_semi_implicit {
       c_.active_set_rows += joined;
       ++c_.active_set_solves;
     }
+  }
+
+  /// One PPE row (stage 8) of unknown particle i at the current ut_, comp_ and dpdn_: its coefficients in `row`
+  /// (merged), its right-hand side returned, before the known neighbours' values are moved into it.
+  double build_ppe_row(index_t i, double dt, op::row_entries& row) const {
+    const index_t n = s_.n_real();
+    const points<D>& x = s_.x();
+    const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
+    double b = 0.0;
+    if (i >= n && p_.copy_row == copy_row_kind::parent_gradient) {
+      // The copy's unknown makes its parent's corrected normal velocity vanish (a deviation, docs/solver.md):
+      // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
+      const index_t ip = parent(i);
+      row.reset(ip);
+      op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+                    participates, row);
+      b = dpdn_[i] / p_.rho - row.constant();
+      if (p_.copy_two_point > 0.0) {
+        // The two-point form of eq. 83 between the copy and its parent (copy_two_point; a parent closer
+        // than 1e-3 L to the wall has no usable distance and keeps the gradient row alone).
+        const double d = (x.col(ip) - x.col(i)).dot(normal_.col(i));
+        // the own-loop guard's fallback at a surface parent (own_loop_guard_params) drops the term
+        if (d > 1e-3 * L_[ip] && !(own_loop_one_point_.size() > static_cast<std::size_t>(ip) &&
+                                   own_loop_one_point_[static_cast<std::size_t>(ip)])) {
+          const double a = p_.copy_two_point / (p_.rho * d);
+          row.add(ip, a);
+          row.add(i, -a);
+          b += p_.copy_two_point * dpdn_[i] / p_.rho;
+        }
+      }
+    } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
+      // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
+      row.reset(i);
+      op_.build_row(x, nl_, i, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+                    participates, row);
+      b = dpdn_[i] / p_.rho - row.constant();
+    } else {
+      mat<D> A = mat<D>::Identity();
+      const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
+      for (int a = 0; a < D; ++a) A.row(a) += dt * G.row(a);
+      row.reset(i);
+      if (p_.pressure == pressure_operator::nested_gradient) {
+        build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);
+      } else {
+        const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
+        if (neumann_points()) pressure_op().build_row(x, nl_, i, sel, participates, row);
+        else op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
+      }
+      // Copies have no volume correction of their own; nor do particles near a free surface, a wall or a
+      // pressure boundary (c′ = 1, above).
+      const double c_i = i < n && !fixed_volume_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
+      b = source_.template rhs<D>(A, c_i, dt) - row.constant();
+    }
+    row.merge();
+    return b;
   }
 
   /// One build and solve of the PPE (stage 8); the unknowns exclude the active set.
@@ -1052,49 +1268,7 @@ class lsmps_semi_implicit {
       for_each_particle(exec::par{}, m, [&](index_t r) {
         const index_t i = rows_[static_cast<std::size_t>(r)];
         op::row_entries& row = row_buf_[static_cast<std::size_t>(r)];
-        if (i >= n && p_.copy_row == copy_row_kind::parent_gradient) {
-          // The copy's unknown makes its parent's corrected normal velocity vanish (a deviation, docs/solver.md):
-          // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
-          const index_t ip = parent(i);
-          row.reset(ip);
-          op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
-                        participates, row);
-          b_[r] = dpdn_[i] / p_.rho - row.constant();
-          if (p_.copy_two_point > 0.0) {
-            // The two-point form of eq. 83 between the copy and its parent (copy_two_point; a parent closer
-            // than 1e-3 L to the wall has no usable distance and keeps the gradient row alone).
-            const double d = (x.col(ip) - x.col(i)).dot(normal_.col(i));
-            if (d > 1e-3 * L_[ip]) {
-              const double a = p_.copy_two_point / (p_.rho * d);
-              row.add(ip, a);
-              row.add(i, -a);
-              b_[r] += p_.copy_two_point * dpdn_[i] / p_.rho;
-            }
-          }
-        } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
-          // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
-          row.reset(i);
-          op_.build_row(x, nl_, i, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
-                        participates, row);
-          b_[r] = dpdn_[i] / p_.rho - row.constant();
-        } else {
-          mat<D> A = mat<D>::Identity();
-          const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
-          for (int a = 0; a < D; ++a) A.row(a) += dt * G.row(a);
-          row.reset(i);
-          if (p_.pressure == pressure_operator::nested_gradient) {
-            build_nested_row(i, ppe::det_f::cofactor<D>(A) / p_.rho, row);
-          } else {
-            const auto sel = ppe::det_f::selector<op_type, D>(A, p_.rho);
-            if (neumann_points()) pressure_op().build_row(x, nl_, i, sel, participates, row);
-            else op_.build_row(x, nl_, i, sel, participates, row, op::neumann_rows{&dpdn_});
-          }
-          // Copies have no volume correction of their own; nor do particles near a free surface, a wall or a
-          // pressure boundary (c′ = 1, above).
-          const double c_i = i < n && !fixed_volume_[static_cast<std::size_t>(i)] ? c_pack_[i] : 1.0;
-          b_[r] = source_.template rhs<D>(A, c_i, dt) - row.constant();
-        }
-        row.merge();
+        b_[r] = build_ppe_row(i, dt, row);
         bool dir = false;
         for_each_entry(row, i, [&](index_t j, double a) {
           if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) {
@@ -1436,6 +1610,9 @@ class lsmps_semi_implicit {
   points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_;
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   std::vector<std::uint8_t> active_set_;  // fluid particles held at p = 0 by the active set this step (stage 8)
+  // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
+  std::vector<std::uint8_t> own_loop_dirichlet_, own_loop_one_point_;
+  Eigen::VectorXd own_loop_gain_;  // ρ(B_i) of the guard's last check (NaN: not checked)
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
   std::vector<op::row_entries> row_buf_;  ///< PPE rows of the step (reused: capacity kept)
