@@ -1051,22 +1051,36 @@ class lsmps_semi_implicit {
         const Eigen::PartialPivLU<Eigen::MatrixXd> lu(Ap);
         const double eps = 1e-6 * L_[i] / dt;  // ≈ 1e-6 of a particle's width per step
         Eigen::VectorXd dr(mp);
+        // the values the perturbation touches, restored bitwise afterwards (x + ε − ε need not be x)
+        std::vector<double> saved;
         for (int a = 0; a < D; ++a) {
-          const auto perturb = [&](double e) {
-            ut_(a, i) += e;
-            comp_[a][i] += e;
-            for (index_t k = k0; k < k1; ++k) {
-              if (p_.copy_neumann == copy_neumann_velocity::parent) ut_(a, k) += e;
-              if (p_.copy_velocity != copy_velocity_in_source::wall) comp_[a][k] = ut_(a, k);
-              dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
-            }
-          };
-          perturb(eps);
+          saved.clear();
+          saved.push_back(ut_(a, i));
+          saved.push_back(comp_[a][i]);
+          for (index_t k = k0; k < k1; ++k) {
+            saved.push_back(ut_(a, k));
+            saved.push_back(comp_[a][k]);
+            saved.push_back(dpdn_[k]);
+          }
+          ut_(a, i) += eps;
+          comp_[a][i] += eps;
+          for (index_t k = k0; k < k1; ++k) {
+            if (p_.copy_neumann == copy_neumann_velocity::parent) ut_(a, k) += eps;
+            if (p_.copy_velocity != copy_velocity_in_source::wall) comp_[a][k] = ut_(a, k);
+            dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
+          }
           for (index_t q = 0; q < mp; ++q) {
             const double b = build_ppe_row(patch[static_cast<std::size_t>(q)], dt, row);
             dr[q] = (b - row.apply(pres) + row.constant() - res0[q]) / eps;
           }
-          perturb(-eps);
+          std::size_t at_saved = 0;
+          ut_(a, i) = saved[at_saved++];
+          comp_[a][i] = saved[at_saved++];
+          for (index_t k = k0; k < k1; ++k) {
+            ut_(a, k) = saved[at_saved++];
+            comp_[a][k] = saved[at_saved++];
+            dpdn_[k] = saved[at_saved++];
+          }
           const Eigen::VectorXd dp = lu.solve(dr);
           for (index_t q = 0; q < mp; ++q) dp_field[patch[static_cast<std::size_t>(q)]] = dp[q];
           B.col(a) -= dt / p_.rho * pressure_op().gradient(x, nl_, i, dp_field, participates);
