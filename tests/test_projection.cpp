@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <utility>
 
 #include "cases/hydrostatic_polygon.hpp"
@@ -369,6 +370,34 @@ TEST_SUITE("projection_stability") {
     CHECK(act.counters().own_loop_solves >= 1);
     CHECK(act.counters().own_loop_dirichlet == marked);  // each marked once, every mark followed by a solve
     CHECK(zero == marked);
+  }
+  TEST_CASE("own-loop guard: the closed-form spectral radius of 2x2 and 3x3 matrices equals Eigen's eigensolver") {
+    // scheme/detail/spectral_radius.hpp (characteristic polynomial; Eigen's general eigensolver cost 60 % of a
+    // test unit's compile time). Random matrices with entries in [-2, 2], and the identity, a rotation (complex
+    // pair), a double root and a defective block. Tolerance: rounding of the cubic's closed form.
+    std::srand(7);
+    const auto rnd = [] { return 4.0 * std::rand() / RAND_MAX - 2.0; };
+    double err2 = 0.0, err3 = 0.0;
+    for (int k = 0; k < 2000; ++k) {
+      Eigen::Matrix2d A;
+      Eigen::Matrix3d B;
+      for (int i = 0; i < 4; ++i) A(i % 2, i / 2) = rnd();
+      for (int i = 0; i < 9; ++i) B(i % 3, i / 3) = rnd();
+      const double ea = Eigen::EigenSolver<Eigen::Matrix2d>(A, false).eigenvalues().cwiseAbs().maxCoeff();
+      const double eb = Eigen::EigenSolver<Eigen::Matrix3d>(B, false).eigenvalues().cwiseAbs().maxCoeff();
+      err2 = std::max(err2, std::abs(scheme::detail::spectral_radius<2>(A) - ea) / std::max(1.0, ea));
+      err3 = std::max(err3, std::abs(scheme::detail::spectral_radius<3>(B) - eb) / std::max(1.0, eb));
+    }
+    std::printf("projection_stability closed-form spectral radius: max relative error 2x2 %.1e, 3x3 %.1e\n", err2, err3);
+    CHECK(err2 <= 1e-9);
+    CHECK(err3 <= 1e-6);
+    CHECK(scheme::detail::spectral_radius<3>(Eigen::Matrix3d::Identity()) == doctest::Approx(1.0));
+    Eigen::Matrix3d R;
+    R << 0.0, -2.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.5;  // eigenvalues ±2i and 0.5
+    CHECK(scheme::detail::spectral_radius<3>(R) == doctest::Approx(2.0));
+    Eigen::Matrix2d J2;
+    J2 << 1.5, 1.0, 0.0, 1.5;  // defective, double root 1.5
+    CHECK(scheme::detail::spectral_radius<2>(J2) == doctest::Approx(1.5));
   }
   TEST_CASE("bad input: own-loop guard parameters out of range are refused") {
     scheme::lsmps_params<2> p;

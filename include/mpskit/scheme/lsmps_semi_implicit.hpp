@@ -49,7 +49,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/SparseCore>
 
@@ -74,6 +73,7 @@
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/scheme/detail/component_fits.hpp"
 #include "mpskit/scheme/detail/resolution_stage.hpp"
+#include "mpskit/scheme/detail/spectral_radius.hpp"
 #include "mpskit/scheme/semi_implicit.hpp"
 #include "mpskit/scheme/time_step.hpp"
 #include "mpskit/search/domain.hpp"
@@ -1088,7 +1088,7 @@ class lsmps_semi_implicit {
         }
         for (const index_t j : patch) at[static_cast<std::size_t>(j)] = npos;
       }
-      const double gain = Eigen::EigenSolver<mat<D>>(B, false).eigenvalues().cwiseAbs().maxCoeff();
+      const double gain = detail::spectral_radius<D>(B);
       own_loop_gain_[i] = gain;
       if (gain > p_.own_loop.max_gain) marked.push_back(i);
     }
