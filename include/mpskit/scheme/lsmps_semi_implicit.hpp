@@ -164,7 +164,7 @@ enum class copy_neumann_velocity {
 /// amplifies; on Tanaka's dam break every failure measured with benchmarks/linearised_step.cpp began as one
 /// (2.5–67× per step at one sparse particle beside a wall), while elsewhere ρ(B_i) ≤ 1.02. δp is solved on a
 /// patch (the unknowns within patch_radius·R_e,i of i, δp = 0 outside, dense LU), which matched the full
-/// Jacobian's block to 4 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7; measured).
+/// Jacobian's block to 6 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7, 23.7 / 25.1).
 /// Where ρ(B_i) > max_gain: a non-surface particle becomes a Dirichlet p = 0 row for the step (as the active
 /// set's particles: no own pressure, no own loop), a surface particle's copies lose the two-point term of
 /// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0); the PPE is
