@@ -732,6 +732,16 @@ class lsmps_semi_implicit {
     c_.small_diameter_events += static_cast<long>(rep.small_diameter_events);
     const index_t m = static_cast<index_t>(copies_.size());
     normal_.setZero(D, n + m);
+    // first_copy_: the copies of particle i are [n + first_copy_[i], n + first_copy_[i + 1]); make_imaginary
+    // writes them grouped by parent in ascending order (checked: the ranges must match)
+    first_copy_.assign(static_cast<std::size_t>(n) + 1, 0);
+    for (index_t k = 0; k < m; ++k) ++first_copy_[static_cast<std::size_t>(copies_[static_cast<std::size_t>(k)].parent) + 1];
+    for (index_t i = 0; i < n; ++i) first_copy_[static_cast<std::size_t>(i) + 1] += first_copy_[static_cast<std::size_t>(i)];
+    for (index_t k = 0; k < m; ++k) {
+      const std::size_t i = static_cast<std::size_t>(copies_[static_cast<std::size_t>(k)].parent);
+      if (k < first_copy_[i] || k >= first_copy_[i + 1])
+        fail("lsmps_semi_implicit: the wall copies are not grouped by parent (copy ", k, ", parent ", i, ")");
+    }
     if (m == 0) return;
     const index_t first = s_.add_ghosts(m, ghost_role::imaginary);
     auto& V = s_.template get<field::volume>();
@@ -939,17 +949,8 @@ class lsmps_semi_implicit {
   /// exclude each other. |δx| only shrinks, so eq. 100's limit still holds.
   void keep_off_merged_faces(index_t n) {
     const points<D>& x = s_.x();
-    first_copy_.assign(static_cast<std::size_t>(n) + 1, 0);
-    for (index_t k = n; k < nc_; ++k) ++first_copy_[static_cast<std::size_t>(parent(k)) + 1];
-    for (index_t i = 0; i < n; ++i) first_copy_[static_cast<std::size_t>(i) + 1] += first_copy_[static_cast<std::size_t>(i)];
-    // make_imaginary writes the copies grouped by parent in ascending order (checked: the ranges must match)
-    for (index_t k = n; k < nc_; ++k) {
-      const index_t i = parent(k);
-      if (k - n < first_copy_[static_cast<std::size_t>(i)] || k - n >= first_copy_[static_cast<std::size_t>(i) + 1])
-        fail("lsmps_semi_implicit: the wall copies are not grouped by parent (copy ", k - n, ", parent ", i, ")");
-    }
     for_each_particle(exec::par{}, n, [&](index_t i) {
-      const index_t c0 = n + first_copy_[static_cast<std::size_t>(i)], c1 = n + first_copy_[static_cast<std::size_t>(i) + 1];
+      const index_t c0 = n + first_copy(i), c1 = n + first_copy(i + 1);
       if (c0 == c1 || (dx_.col(i).array() == 0.0).all()) return;
       const vec<D> xi = x.col(i);
       const double r = p_.walls.alpha_w * L_[i];
@@ -1005,10 +1006,6 @@ class lsmps_semi_implicit {
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
     const bool one_point_fallback = p_.copy_two_point > 0.0 && p_.copy_row == copy_row_kind::parent_gradient;
     const auto known = [this](index_t j) { return unk_[static_cast<std::size_t>(j)] == npos; };
-    // copies of particle i: [n + first[i], n + first[i + 1]) (make_imaginary groups them by parent)
-    std::vector<index_t> first(static_cast<std::size_t>(n) + 1, 0);
-    for (index_t k = n; k < nc_; ++k) ++first[static_cast<std::size_t>(parent(k)) + 1];
-    for (index_t i = 0; i < n; ++i) first[static_cast<std::size_t>(i) + 1] += first[static_cast<std::size_t>(i)];
     std::vector<index_t> marked;
     std::vector<index_t> at(static_cast<std::size_t>(nt), npos), patch;
     Eigen::VectorXd dp_field = Eigen::VectorXd::Zero(nt);
@@ -1016,7 +1013,7 @@ class lsmps_semi_implicit {
     for (index_t i = 0; i < n; ++i) {
       const std::size_t si = static_cast<std::size_t>(i);
       if (!participates(i) || own_loop_dirichlet_[si] || own_loop_one_point_[si]) continue;
-      const index_t k0 = n + first[si], k1 = n + first[si + 1];
+      const index_t k0 = n + first_copy(i), k1 = n + first_copy(i + 1);
       bool candidate = false;
       if (!surface_[si]) {
         candidate = !known(i) && c_pack_[i] < p_.own_loop.candidate_packing;
@@ -1607,6 +1604,14 @@ class lsmps_semi_implicit {
   params_type p_;
   op_type op_, op_p_;  ///< op_p_: the pressure operator with Neumann points (copy_row = neumann_points)
   /// Copies are Neumann points of the pressure fits (copy_row = neumann_points, a scene with walls).
+  /// Offset of particle i's first wall copy after n (make_copies); without walls there are none.
+  index_t first_copy(index_t i) const {
+    if constexpr (has_walls) return first_copy_[static_cast<std::size_t>(i)];
+    else {
+      (void)i;
+      return 0;
+    }
+  }
   bool neumann_points() const { return has_walls && p_.copy_row == copy_row_kind::neumann_points; }
   const op_type& pressure_op() const { return neumann_points() ? op_p_ : op_; }
   source_type source_;
@@ -1616,7 +1621,7 @@ class lsmps_semi_implicit {
   const geometry_type* walls_ = nullptr;
   const pressure_boundary_type* pb_ = nullptr;
   index_t nc_ = 0;  ///< end of the copies in the ghost range (pressure-boundary particles follow)
-  std::vector<index_t> first_copy_;  ///< copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1])
+  std::vector<index_t> first_copy_;  ///< copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1]) (make_copies)
   boundary::pressure_flux last_flux_{};
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
