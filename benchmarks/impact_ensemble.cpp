@@ -13,7 +13,7 @@
 // --max-condition: op::lsmps_params::max_condition (default 1e8); --courant: time_step_params::courant α_C (default
 // Tanaka's 0.1; the runner's Δt_max = α_C L / √(2 g H) follows it); --filter-strength: the boundary filter's ε per
 // step (default 0.05); --shift-limit: the shifting's α_S of eq. 100, |δx| ≤ α_S L per step (default Tanaka's
-// 0.01). The blow-up bound is the case's, max |u| ≤ 50 √(gH). benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
+// 0.01). The blow-up bound is the case's, max |u| ≤ 50 √(gH). A failed run's message goes to stderr. benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -85,6 +85,7 @@ int main(int argc, char** argv) {
                   r.failed ? r.T_failed : T_end, r.steps, r.guarded, u_max / sqrt_gH, T_u, r.p_min / r.rho_g_h,
                   r.min_pair_ratio, wall, r.own_loop_checked, r.own_loop_dirichlet, r.own_loop_one_point, r.own_loop_solves);
       std::fflush(stdout);
+      if (r.failed) std::fprintf(stderr, "L = %g mm, T = %.4f: %s\n", L_mm, r.T_failed, r.failure.c_str());
     }
     return 0;
   } catch (const mpskit::error& e) {
