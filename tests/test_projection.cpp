@@ -371,6 +371,46 @@ TEST_SUITE("projection_stability") {
     CHECK(act.counters().own_loop_dirichlet == marked);  // each marked once, every mark followed by a solve
     CHECK(zero == marked);
   }
+  TEST_CASE("own-loop guard: two surface particles alone in a corner get p = 0 copies, not a singular group") {
+    // The failure of the guard's one-point fallback measured on Tanaka's dam break at 3.0, 3.4 and 4.4 mm
+    // (docs/lsmps_scheme.md deviation 15): two surface particles alone in the bottom-right corner, each with a
+    // floor and a wall copy. Each fit sees the other particle and the four copies (five points, five unknowns
+    // of the second-order fit: exactly determined), so one-point copy rows (the parents' gradients) are
+    // singular: ((x − x₁)·m)², m ⊥ x₂ − x₁, vanishes with its gradient at both parents and not at the copies.
+    // Positions as at 3.4 mm (in units of L from the corner). The direct solver refuses a singular system, so
+    // without the closure test this step throws.
+    const auto tc = tank_2d(90.0);
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    const double L = tc.L;
+    scheme::lsmps_state<2> s0(2);
+    s0.x().col(0) << tc.W - 0.935 * L, 0.268 * L;
+    s0.x().col(1) << tc.W - 0.847 * L, 0.497 * L;
+    s0.u().col(0) << 0.3, -0.3;
+    s0.u().col(1) << 0.3, -0.2;
+    s0.template get<field::volume>().setConstant(L * L);
+    auto p = rest_params<2>();
+    p.g = scheme::semi_implicit_params<2>::gravity();
+    p.copy_two_point = 1.0;
+    p.own_loop.enabled = true;
+    p.own_loop.max_gain = 0.0;  // every candidate marked (their blocks here: printed below)
+    simulation<tank_scene> sim(p, s0, &tank.walls);
+    CHECK_NOTHROW(sim.step());
+    const index_t n = sim.state().n_real();
+    const auto& P = sim.state().template get<field::pressure>();
+    const auto& gain = sim.own_loop_gains();
+    std::printf("projection_stability own-loop guard, two particles in a corner: %ld copies, gains %.3f %.3f, "
+                "%ld p = 0 marks, %ld one-point, pressures at the copies %g\n", static_cast<long>(sim.state().n_ghost()),
+                gain[0], gain[1], sim.counters().own_loop_dirichlet, sim.counters().own_loop_one_point,
+                P.segment(n, sim.state().n_ghost()).cwiseAbs().maxCoeff());
+    REQUIRE(n == 2);
+    CHECK(sim.state().n_ghost() == 4);  // a floor and a wall copy each
+    CHECK((sim.state().flags()[0] & flag::surface) != 0);
+    CHECK((sim.state().flags()[1] & flag::surface) != 0);
+    CHECK(sim.counters().own_loop_dirichlet == 2);  // both parents' copies made p = 0 rows
+    CHECK(sim.counters().own_loop_one_point == 0);
+    CHECK(P.segment(n, 4).cwiseAbs().maxCoeff() == 0.0);
+  }
+
   TEST_CASE("own-loop guard: the closed-form spectral radius of 2x2 and 3x3 matrices equals Eigen's eigensolver") {
     // scheme/detail/spectral_radius.hpp (characteristic polynomial; Eigen's general eigensolver cost 60 % of a
     // test unit's compile time). Random matrices with entries in [-2, 2], and the identity, a rotation (complex

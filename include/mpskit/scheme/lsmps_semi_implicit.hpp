@@ -167,8 +167,11 @@ enum class copy_neumann_velocity {
 /// Jacobian's block to 6 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7, 23.7 / 25.1).
 /// Where ρ(B_i) > max_gain: a non-surface particle becomes a Dirichlet p = 0 row for the step (as the active
 /// set's particles: no own pressure, no own loop), a surface particle's copies lose the two-point term of
-/// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0); the PPE is
-/// solved again and checked again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
+/// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0), or, when none
+/// of the surface particle's fluid neighbours is an unknown, its copies become p = 0 rows (their one-point rows
+/// would see no unknown but copies: a gradient-only group, singular when the parents' fits are exactly
+/// determined; measured, two surface particles in a corner, docs/lsmps_scheme.md); the PPE is solved again and
+/// checked again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
 struct own_loop_guard_params {
   bool enabled = false;            ///< off: Tanaka's scheme (and every earlier result) unchanged
   double max_gain = 1.1;           ///< ρ(B_i) above which the fallback acts (the patch estimate reads up to
@@ -302,7 +305,8 @@ struct lsmps_counters {
   long active_set_solves = 0;      ///< PPE solves repeated by the active set (summed over steps)
   long active_set_unfinished = 0;  ///< steps whose last allowed solve still left a fluid pressure < 0 (kept)
   long own_loop_checked = 0;       ///< particle-steps whose own-loop block was computed (own_loop_guard_params)
-  long own_loop_dirichlet = 0;     ///< particle-steps made p = 0 rows by the own-loop guard
+  long own_loop_dirichlet = 0;     ///< particle-steps made p = 0 rows by the own-loop guard (a surface particle:
+                                   ///< its copies made p = 0 rows)
   long own_loop_one_point = 0;     ///< particle-steps whose copies lost the two-point term (own-loop guard)
   long own_loop_solves = 0;        ///< PPE solves repeated by the own-loop guard
   long list_builds = 0;            ///< neighbour-list builds
@@ -978,18 +982,18 @@ class lsmps_semi_implicit {
   /// 8. The PPE: solve_pressure_with_set, then, with lsmps_params::own_loop, the own-loop guard's checks, each
   /// followed by a new solve when it marked a particle.
   void solve_pressure(double dt) {
-    if (!p_.own_loop.enabled) {
-      solve_pressure_with_set(dt);
-      return;
+    if (p_.own_loop.enabled) {
+      const std::size_t n = static_cast<std::size_t>(s_.n_real());
+      own_loop_dirichlet_.assign(n, 0);
+      own_loop_one_point_.assign(n, 0);
+      own_loop_zero_copies_.assign(n, 0);
+      own_loop_gain_.setConstant(static_cast<index_t>(n), std::numeric_limits<double>::quiet_NaN());
     }
-    const std::size_t n = static_cast<std::size_t>(s_.n_real());
-    own_loop_dirichlet_.assign(n, 0);
-    own_loop_one_point_.assign(n, 0);
-    own_loop_gain_.setConstant(static_cast<index_t>(n), std::numeric_limits<double>::quiet_NaN());
-    solve_pressure_with_set(dt);
-    for (int k = 0; k < p_.own_loop.rounds && own_loop_check(dt) > 0; ++k) {
-      ++c_.own_loop_solves;
+    // one call site of the solve (a second one let the compiler inline the whole build-and-solve twice)
+    for (int round = 0;; ++round) {
       solve_pressure_with_set(dt);
+      if (!p_.own_loop.enabled || round == p_.own_loop.rounds || own_loop_check(dt) == 0) return;
+      ++c_.own_loop_solves;
     }
   }
 
@@ -1012,7 +1016,7 @@ class lsmps_semi_implicit {
     op::row_entries row;
     for (index_t i = 0; i < n; ++i) {
       const std::size_t si = static_cast<std::size_t>(i);
-      if (!participates(i) || own_loop_dirichlet_[si] || own_loop_one_point_[si]) continue;
+      if (!participates(i) || own_loop_dirichlet_[si] || own_loop_one_point_[si] || own_loop_zero_copies_[si]) continue;
       const index_t k0 = n + first_copy(i), k1 = n + first_copy(i + 1);
       bool candidate = false;
       if (!surface_[si]) {
@@ -1090,13 +1094,56 @@ class lsmps_semi_implicit {
       if (gain > p_.own_loop.max_gain) marked.push_back(i);
     }
     // Marked after the sweep: every block of this round is computed on the same solved system.
-    for (const index_t i : marked) {
-      if (surface_[static_cast<std::size_t>(i)]) {
-        own_loop_one_point_[static_cast<std::size_t>(i)] = 1;
-        ++c_.own_loop_one_point;
-      } else {
+    for (const index_t i : marked)
+      if (!surface_[static_cast<std::size_t>(i)]) {
         own_loop_dirichlet_[static_cast<std::size_t>(i)] = 1;
         ++c_.own_loop_dirichlet;
+      }
+    // Surface parents: one-point copy rows are gradient rows of the parent's fit with no diagonal of their own.
+    // A group of one-point parents whose fits see no unknown but the group's own copies is a gradient-only
+    // system, singular when the fits are exactly determined: two surface particles alone in a corner (each fit:
+    // the other particle and the four copies), where the quadratic ((x − x₁)·m)², m ⊥ x₂ − x₁, vanishes with
+    // its gradient at both parents and not at the copies (σ_min = 0 measured at 3.0, 3.4 and 4.4 mm). A parent
+    // is tied when its fit sees an unknown outside the group (a fluid particle, a copy with a two-point row) or a
+    // copy of a tied parent; the group is this round's surface marks with the earlier rounds' one-point parents,
+    // whose ties a new member can close. Tied parents get the one-point rows, the others p = 0 copies.
+    std::vector<index_t> group;
+    for (index_t i = 0; i < n; ++i)
+      if (own_loop_one_point_[static_cast<std::size_t>(i)]) group.push_back(i);
+    const std::size_t earlier = group.size();
+    for (const index_t i : marked)
+      if (surface_[static_cast<std::size_t>(i)]) {
+        group.push_back(i);
+        own_loop_one_point_[static_cast<std::size_t>(i)] = 2;  // a member, for the ties below
+      }
+    if (!group.empty()) {
+      const auto member_copy = [&](index_t j) { return j >= n && j < nc_ && own_loop_one_point_[static_cast<std::size_t>(parent(j))]; };
+      std::vector<std::uint8_t> tied(group.size(), 0);
+      for (std::size_t g = 0; g < group.size(); ++g)
+        nl_.for_each_neighbour(x, group[g], support(), [&](index_t j, const vec<D>&, double) {
+          // this round's p = 0 marks are known in the next solve
+          const bool unknown = !known(j) && !(j < n && own_loop_dirichlet_[static_cast<std::size_t>(j)]);
+          if (participates(j) && unknown && !member_copy(j)) tied[g] = 1;
+        });
+      for (bool changed = true; changed;) {  // ties spread through shared copies (groups of a few particles)
+        changed = false;
+        for (std::size_t g = 0; g < group.size(); ++g) {
+          if (tied[g]) continue;
+          nl_.for_each_neighbour(x, group[g], support(), [&](index_t j, const vec<D>&, double) {
+            if (tied[g] || !member_copy(j)) return;
+            const auto h = std::find(group.begin(), group.end(), parent(j));
+            if (h != group.end() && tied[static_cast<std::size_t>(h - group.begin())]) tied[g] = changed = true;
+          });
+        }
+      }
+      for (std::size_t g = 0; g < group.size(); ++g) {
+        const std::size_t i = static_cast<std::size_t>(group[g]);
+        own_loop_one_point_[i] = tied[g];
+        if (tied[g] && g >= earlier) ++c_.own_loop_one_point;
+        if (!tied[g]) {
+          own_loop_zero_copies_[i] = 1;
+          ++c_.own_loop_dirichlet;
+        }
       }
     }
     return static_cast<index_t>(marked.size());
@@ -1214,9 +1261,11 @@ class lsmps_semi_implicit {
       for (index_t i = 0; i < nt; ++i) {
         // Unknowns: non-surface participating particles; with the parent-gradient wall row also the copies of
         // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
-        // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step).
-        const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient;
+        // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step),
+        // except the copies the own-loop guard made p = 0 rows.
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
+        const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient &&
+                                  !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]);
         if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
         const bool known = surface_[static_cast<std::size_t>(i)] || active_set_[static_cast<std::size_t>(i)];
         if (participates(i) && (!known || copy_unknown)) {
@@ -1631,6 +1680,7 @@ class lsmps_semi_implicit {
   std::vector<std::uint8_t> active_set_;  // fluid particles held at p = 0 by the active set this step (stage 8)
   // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
   std::vector<std::uint8_t> own_loop_dirichlet_, own_loop_one_point_;
+  std::vector<std::uint8_t> own_loop_zero_copies_;  // surface parents whose copies the guard made p = 0 rows
   Eigen::VectorXd own_loop_gain_;  // ρ(B_i) of the guard's last check (NaN: not checked)
   std::vector<wall::imaginary_copy<D>> copies_;
   std::vector<index_t> unk_, rows_;
