@@ -167,11 +167,11 @@ enum class copy_neumann_velocity {
 /// Jacobian's block to 6 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7, 23.7 / 25.1).
 /// Where ρ(B_i) > max_gain: a non-surface particle becomes a Dirichlet p = 0 row for the step (as the active
 /// set's particles: no own pressure, no own loop), a surface particle's copies lose the two-point term of
-/// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0), or, when none
-/// of the surface particle's fluid neighbours is an unknown, its copies become p = 0 rows (their one-point rows
-/// would see no unknown but copies: a gradient-only group, singular when the parents' fits are exactly
-/// determined; measured, two surface particles in a corner, docs/lsmps_scheme.md); the PPE is solved again and
-/// checked again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
+/// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0), or, when the
+/// parent's fit sees no unknown outside the group of such parents and their copies (not tied, own_loop_check),
+/// its copies become p = 0 rows (a gradient-only group is singular when the fits are exactly determined:
+/// measured, two surface particles alone in a corner, docs/lsmps_scheme.md); the PPE is solved again and checked
+/// again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
 struct own_loop_guard_params {
   bool enabled = false;            ///< off: Tanaka's scheme (and every earlier result) unchanged
   double max_gain = 1.1;           ///< ρ(B_i) above which the fallback acts (the patch estimate reads up to
@@ -1652,7 +1652,6 @@ class lsmps_semi_implicit {
 
   params_type p_;
   op_type op_, op_p_;  ///< op_p_: the pressure operator with Neumann points (copy_row = neumann_points)
-  /// Copies are Neumann points of the pressure fits (copy_row = neumann_points, a scene with walls).
   /// Offset of particle i's first wall copy after n (make_copies); without walls there are none.
   index_t first_copy(index_t i) const {
     if constexpr (has_walls) return first_copy_[static_cast<std::size_t>(i)];
@@ -1661,6 +1660,7 @@ class lsmps_semi_implicit {
       return 0;
     }
   }
+  /// Copies are Neumann points of the pressure fits (copy_row = neumann_points, a scene with walls).
   bool neumann_points() const { return has_walls && p_.copy_row == copy_row_kind::neumann_points; }
   const op_type& pressure_op() const { return neumann_points() ? op_p_ : op_; }
   source_type source_;
