@@ -6,14 +6,15 @@
 //
 //   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_impact_ensemble --L 3,3.25,3.5 [--T 3.2] [--walls NAME]
 //       [--bound LAMBDA] [--taper LAMBDA] [--max-condition C] [--courant A]
-//       [--filter-strength EPS] [--shift-limit ALPHA_S] [--header]
+//       [--filter-strength EPS] [--shift-limit ALPHA_S] [--fallback] [--header]
 //
 // --walls: a wall variant of cases::tanaka_wall_variants (default two_point_wall_only_active_set, the example's);
 // --bound / --taper: regularize::boundary_filter_params::max_amplification / taper_amplification (default inf);
 // --max-condition: op::lsmps_params::max_condition (default 1e8); --courant: time_step_params::courant α_C (default
 // Tanaka's 0.1; the runner's Δt_max = α_C L / √(2 g H) follows it); --filter-strength: the boundary filter's ε per
 // step (default 0.05); --shift-limit: the shifting's α_S of eq. 100, |δx| ≤ α_S L per step (default Tanaka's
-// 0.01). The blow-up bound is the case's, max |u| ≤ 50 √(gH). A failed run's message goes to stderr. benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
+// 0.01); --fallback: the PPE solver ppe::with_fallback<bicgstab_jacobi, sparse_lu> (docs/run.md) in place of the
+// default BiCGSTAB-Jacobi alone. The blow-up bound is the case's, max |u| ≤ 50 √(gH). A failed run's message goes to stderr. benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,9 +26,18 @@
 #include <vector>
 
 #include "cases/tanaka_dam_break_run.hpp"
+#include "mpskit/ppe/fallback.hpp"
+#include "mpskit/ppe/sparse_lu.hpp"
 #include "reporter.hpp"
 
 using namespace mpskit;
+
+namespace {
+/// The default scene with SparseLU behind BiCGSTAB-Jacobi (--fallback).
+struct fallback_scene : lsmps_defaults<2> {
+  using solver = ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu>;
+};
+}  // namespace
 
 int main(int argc, char** argv) {
   try {
@@ -35,7 +45,7 @@ int main(int argc, char** argv) {
     double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0;
     double courant = 0.1, filter_eps = 0.05, shift_limit = 0.01;
     std::string walls_name = "two_point_wall_only_active_set";
-    bool header = false;
+    bool header = false, fallback = false;
     for (int a = 1; a < argc; ++a) {
       const bool v = a + 1 < argc;
       if (!std::strcmp(argv[a], "--L") && v) spacings = bench::parse_numbers("--L (mm)", argv[++a], 1e-6);
@@ -48,12 +58,13 @@ int main(int argc, char** argv) {
       else if (!std::strcmp(argv[a], "--filter-strength") && v) filter_eps = bench::parse_number("--filter-strength", argv[++a], 0.0);
       else if (!std::strcmp(argv[a], "--shift-limit") && v) shift_limit = bench::parse_number("--shift-limit", argv[++a], 1e-9);
       else if (!std::strcmp(argv[a], "--header")) header = true;
+      else if (!std::strcmp(argv[a], "--fallback")) fallback = true;
       else fail("bench_impact_ensemble: unexpected argument '", argv[a], "' (see the file's comment for the usage)");
     }
     if (header)
       std::printf("walls,bound,taper,max_condition,courant,filter_strength,shift_limit,L_mm,reached,T_last,steps,guarded,"
                   "max_u_sqrt_gH,T_max_u,p_min_rho_g_H,min_pair_ratio,wall_s,own_loop_checked,own_loop_dirichlet,"
-                  "own_loop_one_point,own_loop_solves\n");
+                  "own_loop_one_point,own_loop_solves,fallback,ppe_fallbacks\n");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
     for (const double L_mm : spacings) {
       cases::tanaka_dam_break_config c;
@@ -77,13 +88,16 @@ int main(int argc, char** argv) {
         }
       };
       const auto t0 = std::chrono::steady_clock::now();
-      const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(c, T_end, p, true, observe);
+      const cases::tanaka_dam_break_result r =
+          fallback ? cases::run_tanaka_dam_break<fallback_scene>(c, T_end, p, true, observe)
+                   : cases::run_tanaka_dam_break(c, T_end, p, true, observe);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::printf("%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f,%ld,%ld,%ld,%ld\n", walls.name.c_str(),
+      std::printf("%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f,%ld,%ld,%ld,%ld,%d,%ld\n", walls.name.c_str(),
                   bound, taper,
                   max_condition > 0.0 ? max_condition : p.op.max_condition, courant, filter_eps, shift_limit, L_mm, r.failed ? 0 : 1,
                   r.failed ? r.T_failed : T_end, r.steps, r.guarded, u_max / sqrt_gH, T_u, r.p_min / r.rho_g_h,
-                  r.min_pair_ratio, wall, r.own_loop_checked, r.own_loop_dirichlet, r.own_loop_one_point, r.own_loop_solves);
+                  r.min_pair_ratio, wall, r.own_loop_checked, r.own_loop_dirichlet, r.own_loop_one_point, r.own_loop_solves,
+                  fallback ? 1 : 0, r.ppe_fallbacks);
       std::fflush(stdout);
       if (r.failed) std::fprintf(stderr, "L = %g mm, T = %.4f: %s\n", L_mm, r.T_failed, r.failure.c_str());
     }

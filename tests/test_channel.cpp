@@ -1019,7 +1019,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 30 values, or of 24 to 29 (older files), the missing ones read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 31 values, or of 24 to 30 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1042,22 +1042,24 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 30);
+    REQUIRE(v.size() == 31);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
     v[27] = 12;  // own_loop_dirichlet
     v[28] = 13;  // own_loop_one_point
-    v[29] = 14;  // own_loop_solves, the last value
+    v[29] = 14;  // own_loop_solves
+    v[30] = 15;  // ppe_fallbacks, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("30.mpscp", v), b);
+    io::load_simulation(write("31.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);
     CHECK(b.counters().own_loop_dirichlet == 12);
     CHECK(b.counters().own_loop_one_point == 13);
     CHECK(b.counters().own_loop_solves == 14);
+    CHECK(b.counters().ppe_fallbacks == 15);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
     md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1065,6 +1067,10 @@ TEST_SUITE("restart") {
     CHECK(b26.counters().filter_tapered == 9);
     CHECK(b26.counters().own_loop_checked == 0);
     CHECK(b26.counters().own_loop_solves == 0);
+    md_sim b30(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("30.mpscp", head(30)), b30);
+    CHECK(b30.counters().own_loop_solves == 14);
+    CHECK(b30.counters().ppe_fallbacks == 0);
     md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("25.mpscp", head(25)), b25);
     CHECK(b25.counters().filter_amplifying == 7);
@@ -1078,9 +1084,9 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 30"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 31"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("31.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 31 values, expected 30"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("32.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 32 values, expected 31"), mpskit::error);
   }
 }

@@ -10,7 +10,9 @@
 #include "cases/dam_break.hpp"
 #include "cases/hydrostatic.hpp"
 #include "mpskit/geometry/generators.hpp"
+#include "mpskit/ppe/fallback.hpp"
 #include "mpskit/ppe/floating_parts.hpp"
+#include "mpskit/ppe/sparse_lu.hpp"
 #include "mpskit/wall/polygon_layers.hpp"
 
 using namespace mpskit;
@@ -425,6 +427,76 @@ TEST_SUITE("solver") {
     bad = {};
     bad.parallel_min_rows = -1;
     CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("parallel_min_rows"), mpskit::error);
+  }
+
+  TEST_CASE("solver: with_fallback solves with the direct solver only when the iterative one fails") {
+    // ppe/fallback.hpp with BiCGSTAB-Jacobi and Eigen's SparseLU on a non-symmetric convection-diffusion matrix
+    // (20 × 20 grid, 5-point −∇² plus an upwind x-convection), b = A u for a known u.
+    const int g = 20;
+    const auto id = [g](int i, int j) { return static_cast<std::ptrdiff_t>(i) * g + j; };
+    std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t;
+    for (int i = 0; i < g; ++i)
+      for (int j = 0; j < g; ++j) {
+        t.emplace_back(id(i, j), id(i, j), 5.0);
+        if (i > 0) t.emplace_back(id(i, j), id(i - 1, j), -2.0);
+        if (i + 1 < g) t.emplace_back(id(i, j), id(i + 1, j), -1.0);
+        if (j > 0) t.emplace_back(id(i, j), id(i, j - 1), -1.0);
+        if (j + 1 < g) t.emplace_back(id(i, j), id(i, j + 1), -1.0);
+      }
+    ppe::matrix A(g * g, g * g);
+    A.setFromTriplets(t.begin(), t.end());
+    Eigen::VectorXd u(g * g);
+    for (int k = 0; k < g * g; ++k) u[k] = std::sin(0.37 * k) + 0.01 * k;
+    const Eigen::VectorXd b = A * u;
+    const auto row = [](index_t r) { return "row " + std::to_string(r); };
+    using solver = ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu>;
+    static_assert(ppe::LinearSolver<solver> && !solver::requires_symmetric);
+    // Converging: the fallback is not used (and not factorised).
+    ppe::solver_params sp;
+    solver ok(sp);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(g * g);
+    const ppe::solve_report r0 = ppe::solve_checked(ok, A, b, x, sp, 0, 0.0, row);
+    CHECK(!r0.fallback);
+    CHECK(r0.iterations > 1);
+    CHECK(ok.fallbacks() == 0);
+    // Capped at 1 iteration, BiCGSTAB fails and SparseLU solves: the error bound is the residual check (1e-8)
+    // times the condition number (this matrix: ≈ 40, diagonally dominant), so 1e-6 |u| cannot be met by the
+    // failed iterate (measured below) and is met with margin by the LU (measured ≈ 1e-15).
+    ppe::solver_params capped = sp;
+    capped.max_iterations = 1;
+    ppe::bicgstab_jacobi alone(capped);
+    Eigen::VectorXd xa = Eigen::VectorXd::Zero(g * g);
+    REQUIRE(alone.compute(A) == Eigen::Success);
+    const ppe::solve_report ra = alone.solve(b, xa);
+    REQUIRE(ra.info != Eigen::Success);
+    solver fb(capped);
+    Eigen::VectorXd xf = Eigen::VectorXd::Zero(g * g);
+    const ppe::solve_report rf = ppe::solve_checked(fb, A, b, xf, capped, 1, 0.0, row);
+    MESSAGE("capped BiCGSTAB error " << (xa - u).norm() / u.norm() << ", after the fallback "
+                                     << (xf - u).norm() / u.norm() << " (residual " << rf.residual << ")");
+    CHECK((xa - u).norm() > 1e-6 * u.norm());
+    CHECK(rf.fallback);
+    CHECK(rf.iterations == 1);  // the primary's, reported with the fallback's 0
+    CHECK(rf.residual <= capped.tolerance);
+    CHECK((xf - u).norm() <= 1e-6 * u.norm());
+    CHECK(fb.fallbacks() == 1);
+    // A singular system (two equal rows) still fails, and the message says the fallback failed too.
+    ppe::matrix S = A;
+    for (std::ptrdiff_t k = S.outerIndexPtr()[1]; k < S.outerIndexPtr()[2]; ++k) S.valuePtr()[k] = 0.0;
+    for (std::ptrdiff_t k = S.outerIndexPtr()[0]; k < S.outerIndexPtr()[1]; ++k)
+      S.coeffRef(1, S.innerIndexPtr()[k]) = S.valuePtr()[k];
+    S.makeCompressed();
+    Eigen::VectorXd xs = Eigen::VectorXd::Zero(g * g);
+    CHECK_THROWS_WITH_AS(ppe::solve_checked(fb, S, b, xs, capped, 2, 0.0, row),
+                         doctest::Contains("the fallback solver failed too"), mpskit::error);
+    CHECK(fb.fallbacks() == 2);
+    // A non-finite iterate is named as a breakdown at its first non-finite unknown (not a "largest residual").
+    Eigen::VectorXd bn = b;
+    bn[5] = std::nan("");
+    Eigen::VectorXd xn = Eigen::VectorXd::Zero(g * g);
+    ppe::bicgstab_jacobi plain(sp);
+    CHECK_THROWS_WITH_AS(ppe::solve_checked(plain, A, bn, xn, sp, 3, 0.0, row),
+                         doctest::Contains("broke down at step 3"), mpskit::error);
   }
 }
 

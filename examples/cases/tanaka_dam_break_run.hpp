@@ -38,6 +38,7 @@ struct tanaka_dam_break_result {
   /// own-loop guard (lsmps_params::own_loop): particle-steps checked, made p = 0, with copies' two-point term
   /// dropped; repeated solves
   long own_loop_checked = 0, own_loop_dirichlet = 0, own_loop_one_point = 0, own_loop_solves = 0;
+  long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -212,6 +213,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.own_loop_dirichlet = sim.counters().own_loop_dirichlet;
   r.own_loop_one_point = sim.counters().own_loop_one_point;
   r.own_loop_solves = sim.counters().own_loop_solves;
+  r.ppe_fallbacks = sim.counters().ppe_fallbacks;
   return r;
 }
 

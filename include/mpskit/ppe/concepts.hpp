@@ -39,6 +39,7 @@ struct solve_report {
   long iterations = 0;                           ///< iterations used
   double residual = 0.0;                         ///< relative residual |A x − b| / |b| reached
   bool lagged_retry = false;  ///< a solve on lagged factors failed and was repeated with fresh ones (eigen_iterative)
+  bool fallback = false;      ///< the primary solver failed and the fallback solver made this solve (ppe::with_fallback)
 };
 
 /// A linear solver over `matrix`: `compute(A)` then `solve(b, x)` with x the warm start on entry.

@@ -3,6 +3,7 @@
 /// \brief Eigen's iterative solvers behind one API: CG (Jacobi or incomplete Cholesky), BiCGSTAB,
 /// GMRES and IDR(s) from the unsupported module. Each solve starts from the given x (warm start) and
 /// reports iterations and relative residual; non-convergence is returned, not hidden.
+#include <cmath>
 #include <vector>
 
 #include <Eigen/IterativeLinearSolvers>
@@ -259,7 +260,8 @@ class eigen_iterative {
     }
     // A true residual still more than 10× the tolerance is reported as non-convergence.
     if (r.info == Eigen::Success && r.residual > 10.0 * p_.tolerance) r.info = Eigen::NoConvergence;
-    if (!x.allFinite()) r.info = Eigen::NumericalIssue;
+    // Not finite: a breakdown, or a non-finite b (Eigen's solvers then stop at once and report success)
+    if (!x.allFinite() || !std::isfinite(r.residual)) r.info = Eigen::NumericalIssue;
     return r;
   }
 

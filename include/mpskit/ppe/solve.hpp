@@ -3,6 +3,7 @@
 /// \brief One checked PPE solve for every scheme: factorise, solve from the warm start, and turn a failed
 /// preconditioner or a non-converged solve into mpskit::error naming the step, the time, the residual,
 /// the stopping rule and the row with the largest residual (ARCHITECTURE.md §6).
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -40,12 +41,19 @@ solve_report solve_checked(S& solver, const matrix& A, const Eigen::VectorXd& b,
     fail("PPE: the preconditioner failed at step ", step, ", t = ", t, " s (", A.rows(), " unknowns)");
   const solve_report rep = solver.solve(b, x);
   if (rep.info != Eigen::Success) {
-    index_t worst = 0;
+    const char* after = rep.fallback ? " (and the fallback solver failed too)" : "";
     const Eigen::VectorXd res = A * x - b;
+    // A breakdown leaves a non-finite iterate or residual: name the first non-finite row, not a "largest
+    // residual" (a NaN compares false with everything).
+    for (Eigen::Index r = 0; r < x.size(); ++r)
+      if (!std::isfinite(x[r]) || !std::isfinite(res[r]))
+        fail("PPE: the solver broke down at step ", step, ", t = ", t, " s: non-finite solution or residual after ",
+             rep.iterations, " iterations", after, ", first at ", std::string(describe(static_cast<index_t>(r))));
+    index_t worst = 0;
     res.cwiseAbs().maxCoeff(&worst);
     fail("PPE: solver did not converge at step ", step, ", t = ", t, " s: relative residual ", rep.residual,
-         " after ", rep.iterations, " iterations (tolerance ", p.tolerance, ", cap ", p.max_iterations,
-         "); largest residual at ", std::string(describe(worst)));
+         " after ", rep.iterations, " iterations (tolerance ", p.tolerance, ", cap ", p.max_iterations, ")", after,
+         "; largest residual at ", std::string(describe(worst)));
   }
   return rep;
 }
