@@ -21,6 +21,29 @@ namespace {
 std::vector<cases::front_series> front_data() {
   return cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
 }
+/// A non-symmetric convection–diffusion matrix on a g × g grid in the PPE's CSR type: 5-point −∇² with the
+/// diagonal 5 and the upstream (i − 1) neighbour −2 (diagonally dominant).
+ppe::matrix convection_diffusion(int g) {
+  std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t;
+  const auto id = [g](int i, int j) { return static_cast<std::ptrdiff_t>(i) * g + j; };
+  for (int i = 0; i < g; ++i)
+    for (int j = 0; j < g; ++j) {
+      t.emplace_back(id(i, j), id(i, j), 5.0);
+      if (i > 0) t.emplace_back(id(i, j), id(i - 1, j), -2.0);
+      if (i + 1 < g) t.emplace_back(id(i, j), id(i + 1, j), -1.0);
+      if (j > 0) t.emplace_back(id(i, j), id(i, j - 1), -1.0);
+      if (j + 1 < g) t.emplace_back(id(i, j), id(i, j + 1), -1.0);
+    }
+  ppe::matrix A(g * g, g * g);
+  A.setFromTriplets(t.begin(), t.end());
+  return A;
+}
+/// A known solution u_k = sin(0.37 k) + 0.01 k (b = A u in the solver tests).
+Eigen::VectorXd known_solution(int n) {
+  Eigen::VectorXd u(n);
+  for (int k = 0; k < n; ++k) u[k] = std::sin(0.37 * k) + 0.01 * k;
+  return u;
+}
 }  // namespace
 
 TEST_SUITE("hydrostatic") {
@@ -282,20 +305,8 @@ TEST_SUITE("solver") {
     // step there) is kept and converges to u; one with 20 % new unknowns (above ilut_reuse_unmatched = 10 %) and
     // a solver without the option factorise.
     const int g = 30, n = g * g;
-    std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t;
-    const auto id = [g](int i, int j) { return static_cast<std::ptrdiff_t>(i) * g + j; };
-    for (int i = 0; i < g; ++i)
-      for (int j = 0; j < g; ++j) {
-        t.emplace_back(id(i, j), id(i, j), 5.0);
-        if (i > 0) t.emplace_back(id(i, j), id(i - 1, j), -2.0);
-        if (i + 1 < g) t.emplace_back(id(i, j), id(i + 1, j), -1.0);
-        if (j > 0) t.emplace_back(id(i, j), id(i, j - 1), -1.0);
-        if (j + 1 < g) t.emplace_back(id(i, j), id(i, j + 1), -1.0);
-      }
-    ppe::matrix A(n, n);
-    A.setFromTriplets(t.begin(), t.end());
-    Eigen::VectorXd u(n);
-    for (int k = 0; k < n; ++k) u[k] = std::sin(0.37 * k) + 0.01 * k;
+    const ppe::matrix A = convection_diffusion(g);
+    const Eigen::VectorXd u = known_solution(n);
     // new index r holds old unknown perm[r]: a fixed pseudo-random permutation
     std::vector<index_t> perm(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) perm[static_cast<std::size_t>(k)] = k;
@@ -431,22 +442,10 @@ TEST_SUITE("solver") {
 
   TEST_CASE("solver: with_fallback solves with the direct solver only when the iterative one fails") {
     // ppe/fallback.hpp with BiCGSTAB-Jacobi and Eigen's SparseLU on a non-symmetric convection-diffusion matrix
-    // (20 × 20 grid, 5-point −∇² plus an upwind x-convection), b = A u for a known u.
+    // (20 × 20 grid), b = A u for a known u.
     const int g = 20;
-    const auto id = [g](int i, int j) { return static_cast<std::ptrdiff_t>(i) * g + j; };
-    std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t;
-    for (int i = 0; i < g; ++i)
-      for (int j = 0; j < g; ++j) {
-        t.emplace_back(id(i, j), id(i, j), 5.0);
-        if (i > 0) t.emplace_back(id(i, j), id(i - 1, j), -2.0);
-        if (i + 1 < g) t.emplace_back(id(i, j), id(i + 1, j), -1.0);
-        if (j > 0) t.emplace_back(id(i, j), id(i, j - 1), -1.0);
-        if (j + 1 < g) t.emplace_back(id(i, j), id(i, j + 1), -1.0);
-      }
-    ppe::matrix A(g * g, g * g);
-    A.setFromTriplets(t.begin(), t.end());
-    Eigen::VectorXd u(g * g);
-    for (int k = 0; k < g * g; ++k) u[k] = std::sin(0.37 * k) + 0.01 * k;
+    const ppe::matrix A = convection_diffusion(g);
+    const Eigen::VectorXd u = known_solution(g * g);
     const Eigen::VectorXd b = A * u;
     const auto row = [](index_t r) { return "row " + std::to_string(r); };
     using solver = ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu>;
