@@ -355,6 +355,29 @@ TEST_SUITE("projection_stability") {
     CHECK(on.state().template get<field::pressure>() == off.state().template get<field::pressure>());
     CHECK(on.state().u() == off.state().u());
 
+    // Wall candidates (own_loop_guard_params::wall_candidate_packing): with no packing candidates
+    // (candidate_packing = 0) and wall_candidate_packing = 10, the non-surface particles checked are exactly those
+    // with wall copies: the first layer, 0.5 L from a wall (α_w L = L; the second layer is at 1.5 L).
+    auto w = h;
+    w.own_loop.candidate_packing = 0.0;
+    w.own_loop.wall_candidate_packing = 10.0;
+    simulation<tank_scene> wc(w, s0, &tank.walls);
+    wc.step();
+    const auto tc = tank_2d(90.0);
+    long wall_checked = 0, mismatched = 0;
+    for (index_t i = 0; i < n; ++i) {
+      if ((wc.state().flags()[static_cast<std::size_t>(i)] & flag::surface) != 0) continue;
+      const auto x = s0.x().col(i);  // rest_params: no reordering, the step keeps the particle order
+      const bool near = std::min({x[0], tc.W - x[0], x[1]}) < tc.L;
+      const bool checked = !std::isnan(wc.own_loop_gains()[i]);
+      wall_checked += checked;
+      mismatched += checked != near;
+    }
+    std::printf("projection_stability own-loop guard, wall candidates: %ld non-surface particles checked, %ld "
+                "mismatched\n", wall_checked, mismatched);
+    CHECK(wall_checked >= 10);  // the first layer of the floor and both walls below the surface
+    CHECK(mismatched == 0);
+
     // The fallback: with every non-surface particle a candidate and max_gain = 0.5 (below the blocks, ≈ 0.95 in
     // the interior) each marked non-surface particle is solved at p = 0 and each marked surface parent keeps the
     // two-point term off; the PPE is solved again.
@@ -496,6 +519,9 @@ TEST_SUITE("projection_stability") {
     p.own_loop = {};
     p.own_loop.rounds = 0;
     CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("rounds"), mpskit::error);
+    p.own_loop = {};
+    p.own_loop.wall_candidate_packing = -1.0;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("wall_candidate_packing"), mpskit::error);
   }
   TEST_CASE("boundary filter: quadratic velocity fields are unchanged, a one-particle spike is damped by about epsilon") {
     // û_i is the LSMPS-B order-2 fit over j ≠ i: exact for quadratics, so u_i + ε(û_i − u_i) = u_i to rounding.

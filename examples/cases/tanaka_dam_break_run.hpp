@@ -72,7 +72,8 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 /// The wall options the dam-break runs compare (docs/lsmps_scheme.md): parent_gradient (the library's
 /// defaults), neumann_points (copy_row = neumann_points, deviation 11), two_point_wall_only (copy_two_point = 1
 /// and shift.projection = wall_only), two_point_wall_only_active_set (the same with active_set_solves = 10,
-/// deviation 13), two_point_wall_only_active_set_own_loop (the same with the own-loop guard, deviation 15) and
+/// deviation 13), two_point_wall_only_active_set_own_loop (the same with the own-loop guard, deviation 15),
+/// two_point_wall_only_active_set_own_loop_wall (the same with own_loop.wall_candidate_packing = 0.9) and
 /// neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
 /// configuration of the main example, examples/multires_dam_break.cpp). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
 struct tanaka_wall_variant {
@@ -86,6 +87,12 @@ inline void two_point_wall_only(scheme::lsmps_params<2>& p) {
   p.copy_two_point = 1.0;
   p.shift.projection = regularize::penalty_projection::wall_only;
 }
+/// The same with active_set_solves = 10 and the own-loop guard (the two own-loop variants).
+inline void two_point_own_loop(scheme::lsmps_params<2>& p) {
+  two_point_wall_only(p);
+  p.active_set_solves = 10;
+  p.own_loop.enabled = true;
+}
 inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
   static const std::vector<tanaka_wall_variant> v{
       {"parent_gradient", "", "", [](scheme::lsmps_params<2>&) {}},
@@ -98,11 +105,12 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
          p.active_set_solves = 10;
        }},
       {"two_point_wall_only_active_set_own_loop", "-tpo",
-       ", two-point rows + wall-only shifting + active set + own-loop guard",
+       ", two-point rows + wall-only shifting + active set + own-loop guard", &two_point_own_loop},
+      {"two_point_wall_only_active_set_own_loop_wall", "-tpow",
+       ", two-point rows + wall-only shifting + active set + own-loop guard, wall candidates c < 0.9",
        [](scheme::lsmps_params<2>& p) {
-         two_point_wall_only(p);
-         p.active_set_solves = 10;
-         p.own_loop.enabled = true;
+         two_point_own_loop(p);
+         p.own_loop.wall_candidate_packing = 0.9;
        }},
       {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {

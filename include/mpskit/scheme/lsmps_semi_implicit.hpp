@@ -179,11 +179,15 @@ struct own_loop_guard_params {
                                    ///< below 1 it marks decaying loops too, for experiments). Accepted: [0, 1e6]
   double candidate_packing = 0.7;  ///< non-surface particles with packing ratio c < this are checked (the
                                    ///< failing ones had c = 0.40–0.58; c ≈ 1 inside)
+  double wall_candidate_packing = 0.7;  ///< non-surface particles with wall copies and c < this are checked too
+                                        ///< (an own loop at c = 0.87 beside a wall was measured at 3.6 mm;
+                                        ///< ≤ candidate_packing: no extra candidates, the default)
   double patch_radius = 1.5;       ///< patch radius in units of the particle's R_e
   int rounds = 3;                  ///< checks per step, each followed by a solve when a fallback acted
   void validate() const {
     validator v("own_loop_guard_params");
     v.in_range("max_gain", max_gain, 0.0, 1e6).in_range("candidate_packing", candidate_packing, 0.0, 1e3);
+    v.in_range("wall_candidate_packing", wall_candidate_packing, 0.0, 1e3);
     v.in_range("patch_radius", patch_radius, 1.0, 1e3).in_range("rounds", rounds, 1, 100);
     v.throw_if_any();
   }
@@ -1021,7 +1025,8 @@ class lsmps_semi_implicit {
       const index_t k0 = n + first_copy(i), k1 = n + first_copy(i + 1);
       bool candidate = false;
       if (!surface_[si]) {
-        candidate = !known(i) && c_pack_[i] < p_.own_loop.candidate_packing;
+        candidate = !known(i) && (c_pack_[i] < p_.own_loop.candidate_packing ||
+                                  (k1 > k0 && c_pack_[i] < p_.own_loop.wall_candidate_packing));
       } else if (one_point_fallback) {
         for (index_t k = k0; k < k1; ++k) candidate = candidate || !known(k);
       }
