@@ -246,6 +246,11 @@ struct lsmps_params {
   /// particle joining it only drops its row and its column, and its p = 0 moves nothing to the right-hand
   /// sides). false rebuilds every row for every repeat: the reference path, bitwise the same (tested).
   bool active_set_reuse_rows = true;
+  /// The active set takes the wall copies too (ours, opt-in; needs active_set_solves > 0): a copy unknown solved
+  /// below 0 becomes a p = 0 row for the rest of the step — the wall's contact condition as the same
+  /// complementarity, p_wall ≥ 0 (a wall pushes, it does not pull: the fluid may leave it). Without it, copies
+  /// of particles leaving a wall were solved at −1.4·10⁷ Pa in the dam break (3.8 mm), docs/lsmps_scheme.md.
+  bool active_set_copies = false;
   own_loop_guard_params own_loop{};   ///< the own-loop guard (ours, opt-in; see the struct)
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
@@ -1175,7 +1180,7 @@ class lsmps_semi_implicit {
       if (p_.active_set_solves == 0) return;
       const bool last = repeat == p_.active_set_solves;  // negatives found now are kept and counted
       long joined = 0;
-      for (index_t i = 0; i < n; ++i)
+      for (index_t i = 0; i < (p_.active_set_copies ? nc_ : n); ++i)
         if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) {
           ++joined;
           if (!last) active_set_[static_cast<std::size_t>(i)] = 1;
@@ -1271,7 +1276,8 @@ class lsmps_semi_implicit {
         // except the copies the own-loop guard made p = 0 rows.
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
         const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient &&
-                                  !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]);
+                                  !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]) &&
+                                  !active_set_[static_cast<std::size_t>(i)];  // active_set_copies
         if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
         const bool known = surface_[static_cast<std::size_t>(i)] || active_set_[static_cast<std::size_t>(i)];
         if (participates(i) && (!known || copy_unknown)) {
