@@ -518,6 +518,13 @@ TEST_SUITE("projection_stability") {
     rebuilt.step();
     CHECK(rebuilt.state().template get<field::pressure>() == with_copies.state().template get<field::pressure>());
     CHECK(rebuilt.state().u() == with_copies.state().u());
+    // Bad input: the option without the active set, or without copy unknowns, would do nothing.
+    p.active_set_solves = 0;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("active_set_copies"), mpskit::error);
+    p.active_set_solves = 10;
+    p.copy_two_point = 0.0;
+    p.copy_row = scheme::copy_row_kind::neumann_points;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("active_set_copies: needs copy rows"), mpskit::error);
   }
 
   TEST_CASE("own-loop guard: the closed-form spectral radius of 2x2 and 3x3 matrices equals Eigen's eigensolver") {

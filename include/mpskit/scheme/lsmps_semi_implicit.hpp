@@ -277,6 +277,10 @@ struct lsmps_params {
     v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::neumann_points),
               "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not neumann_points "
               "(the nested rows read the copies' parents' gradients, which have no Neumann points)");
+    v.require(!(active_set_copies && active_set_solves == 0), "active_set_copies",
+              "needs active_set_solves > 0 (the copies join the active set's repeated solves)");
+    v.require(!(active_set_copies && copy_row == copy_row_kind::neumann_points), "active_set_copies",
+              "needs copy rows (copy_row = neumann_points has no copy unknowns)");
     v.require(!(copy_two_point > 0.0 && copy_row == copy_row_kind::neumann_points), "copy_two_point",
               "a two-point copy row needs copy_row = parent_gradient (with neumann_points the copies have no row)");
     v.throw_if_any();
