@@ -315,7 +315,8 @@ struct lsmps_counters {
   long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
   long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
-  long active_set_rows = 0;        ///< fluid particles made p = 0 rows by the active set (particle-steps)
+  long active_set_rows = 0;        ///< fluid particles (and copies: active_set_copies) made p = 0 rows by the
+                                   ///< active set (particle-steps)
   long active_set_solves = 0;      ///< PPE solves repeated by the active set (summed over steps)
   long active_set_unfinished = 0;  ///< steps whose last allowed solve still left a fluid pressure < 0 (kept)
   long own_loop_checked = 0;       ///< particle-steps whose own-loop block was computed (own_loop_guard_params)
@@ -1277,7 +1278,7 @@ class lsmps_semi_implicit {
         // Unknowns: non-surface participating particles; with the parent-gradient wall row also the copies of
         // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
         // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step),
-        // except the copies the own-loop guard made p = 0 rows.
+        // except the copies the own-loop guard made p = 0 rows and those in the active set (active_set_copies).
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
         const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient &&
                                   !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]) &&
@@ -1695,7 +1696,7 @@ class lsmps_semi_implicit {
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_;
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
-  std::vector<std::uint8_t> active_set_;  // fluid particles held at p = 0 by the active set this step (stage 8)
+  std::vector<std::uint8_t> active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
   // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
   std::vector<std::uint8_t> own_loop_dirichlet_, own_loop_one_point_;
   std::vector<std::uint8_t> own_loop_zero_copies_;  // surface parents whose copies the guard made p = 0 rows
