@@ -7,6 +7,8 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <cstddef>
+#include <vector>
 #include <filesystem>
 #include <string>
 #if __has_include(<unistd.h>)
@@ -15,6 +17,8 @@
 
 #include "cases/dam_break.hpp"
 #include "mpskit/io/simulation_checkpoint.hpp"
+#include "mpskit/ppe/fallback.hpp"
+#include "mpskit/ppe/sparse_lu.hpp"
 
 using namespace mpskit;
 namespace fs = std::filesystem;
@@ -26,6 +30,13 @@ struct scratch : mpskit::test::scratch {
 };
 
 using sim_t = simulation<defaults<2>>;
+/// The classic defaults with Eigen's SparseLU behind incomplete-Cholesky CG (ppe/fallback.hpp), and SparseLU alone.
+struct fallback_defaults : defaults<2> {
+  using solver = ppe::with_fallback<ppe::cg_ichol, ppe::sparse_lu>;
+};
+struct lu_defaults : defaults<2> {
+  using solver = ppe::sparse_lu;
+};
 
 /// The dam break of examples/cases/dam_break.hpp at l0 = a/15 (coarse: the test is about restart).
 struct dam {
@@ -58,6 +69,7 @@ void check_same_counters(const scheme::semi_implicit_counters& a, const scheme::
   CHECK(a.list_builds == b.list_builds);
   CHECK(a.reorders == b.reorders);
   CHECK(a.negative_clamped == b.negative_clamped);
+  CHECK(a.ppe_fallbacks == b.ppe_fallbacks);
 }
 }  // namespace
 
@@ -119,5 +131,65 @@ TEST_SUITE("restart") {
     CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", e), doctest::Contains("no section 'semi_implicit.time'"),
                          mpskit::error);
     CHECK(e.time() == 0.0);
+  }
+
+  TEST_CASE("restart: the classic scheme counts the fallback's solves (ppe_fallbacks), kept in the checkpoint") {
+    // ppe::with_fallback<cg_ichol, sparse_lu> in the classic stepper. With CG capped at one iteration it never
+    // converges, so every step's PPE is solved by the LU: 10 steps, 10 fallbacks, and the same pressures as
+    // SparseLU alone (both are the LU solution of the same system; tolerance 1e-9 of the largest pressure, far
+    // above round-off and far below CG's one-iteration error). Uncapped, CG converges and the count stays 0.
+    scratch tmp("fallback");
+    const dam d;
+    auto capped = d.cfg.params;
+    capped.solver.max_iterations = 1;
+    simulation<fallback_defaults> a(capped, d.initial());
+    simulation<lu_defaults> lu(d.cfg.params, d.initial());
+    simulation<fallback_defaults> plain(d.cfg.params, d.initial());
+    for (int k = 0; k < 10; ++k) {
+      a.step();
+      lu.step();
+      plain.step();
+      CHECK(a.last_solve().fallback);
+      CHECK(!plain.last_solve().fallback);
+    }
+    CHECK(a.counters().ppe_fallbacks == 10);
+    CHECK(plain.counters().ppe_fallbacks == 0);
+    CHECK(lu.counters().ppe_fallbacks == 0);
+    const auto& pa = a.state().get<field::pressure>();
+    const auto& pl = lu.state().get<field::pressure>();
+    REQUIRE(pa.size() == pl.size());
+    const double scale = pl.cwiseAbs().maxCoeff(), diff = (pa - pl).cwiseAbs().maxCoeff();
+    MESSAGE("after 10 steps: largest pressure " << scale << " Pa, fallback against SparseLU alone " << diff << " Pa");
+    REQUIRE(scale > 0.0);
+    CHECK(diff <= 1e-9 * scale);
+
+    // The checkpoint keeps the count; a file written before it (8 counters) loads with 0.
+    io::save_simulation(tmp / "c.mpscp", a);
+    simulation<fallback_defaults> b(capped, d.initial());
+    io::load_simulation(tmp / "c.mpscp", b);
+    check_same_counters(a.counters(), b.counters());
+    scheme::semi_implicit_state<2> st;
+    io::checkpoint_sections all;
+    io::load_checkpoint(tmp / "c.mpscp", st, all);
+    std::vector<std::int64_t> v = all.get_int64s("semi_implicit.counters");
+    REQUIRE(v.size() == 9);
+    CHECK(v[8] == 10);
+    const auto write = [&](const std::string& name, std::size_t n) {  // the file with the first n counters
+      io::checkpoint_sections old;
+      old.add_doubles("semi_implicit.time", all.get_doubles("semi_implicit.time"));
+      old.add_doubles("semi_implicit.l0", all.get_doubles("semi_implicit.l0"));
+      old.add_int64s("semi_implicit.counters", std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n)));
+      old.add_int64s("semi_implicit.time_step", all.get_int64s("semi_implicit.time_step"));
+      io::save_checkpoint(tmp / name, st, old);
+      return tmp / name;
+    };
+    simulation<fallback_defaults> c(capped, d.initial());
+    io::load_simulation(write("8.mpscp", 8), c);
+    CHECK(c.counters().steps == 10);
+    CHECK(c.counters().ppe_iterations == a.counters().ppe_iterations);
+    CHECK(c.counters().ppe_fallbacks == 0);
+    simulation<fallback_defaults> e(capped, d.initial());
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 9"),
+                         mpskit::error);
   }
 }

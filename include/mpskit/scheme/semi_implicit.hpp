@@ -128,6 +128,7 @@ struct semi_implicit_counters {
   long list_builds = 0;           ///< neighbour-list builds
   long reorders = 0;              ///< cell reorders
   long negative_clamped = 0;      ///< pressures clamped to zero (summed)
+  long ppe_fallbacks = 0;         ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
 };
 
 /// Particle state of the classic scheme: core fields + pressure + number density.
@@ -543,6 +544,7 @@ class semi_implicit {
     });
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
+    c_.ppe_fallbacks += last_solve_.fallback;
     long clamped = 0;
     for (index_t r = 0; r < m; ++r) {
       double v = sol[r];
