@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "cases/tanaka_dam_break_run.hpp"
@@ -18,12 +19,16 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// The obstacle runs' wall options (`neumann_points_wall_only_active_set`: Neumann-point copy rows, wall-only
-/// shifting, the active set for p ≥ 0; docs/lsmps_scheme.md deviations 11 and 13). With the library's default
-/// rows the obstacle case fails at t ≈ 0.11 s even at single resolution.
-inline scheme::lsmps_params<2> obstacle_params() {
+/// The obstacle runs' default wall options (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0;
+/// docs/lsmps_scheme.md deviations 11 and 13). With the library's default rows the obstacle case fails at
+/// t ≈ 0.11 s even at single resolution.
+inline constexpr const char* obstacle_walls = "neumann_points_wall_only_active_set";
+
+/// The obstacle runs' parameters with the wall variant `walls` (a name of tanaka_wall_variants; unknown names
+/// are refused).
+inline scheme::lsmps_params<2> obstacle_params(const std::string& walls = obstacle_walls) {
   scheme::lsmps_params<2> p;
-  tanaka_wall_variant_named("neumann_points_wall_only_active_set", "obstacle_params").apply(p);
+  tanaka_wall_variant_named(walls, "obstacle_params").apply(p);
   return p;
 }
 
