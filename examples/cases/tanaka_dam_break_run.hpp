@@ -74,7 +74,9 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 /// and shift.projection = wall_only), two_point_wall_only_active_set (the same with active_set_solves = 10,
 /// deviation 13), two_point_wall_only_active_set_own_loop (the same with the own-loop guard, deviation 15),
 /// two_point_wall_only_active_set_own_loop_wall (the same with own_loop.wall_candidate_packing = 0.9),
-/// two_point_wall_only_active_set_own_loop_copies (the own-loop variant with active_set_copies) and
+/// two_point_wall_only_active_set_own_loop_copies (the own-loop variant with active_set_copies),
+/// two_point_wall_only_active_set_own_loop_copies_conditioned (the same with op.max_condition = 1e4: a fit whose
+/// moment matrix has cond1 above 1e4 falls back to a lower order; docs/lsmps_scheme.md "Ill-conditioned fits") and
 /// neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
 /// configuration of the main example, examples/multires_dam_break.cpp). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
 struct tanaka_wall_variant {
@@ -118,6 +120,13 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
        [](scheme::lsmps_params<2>& p) {
          two_point_own_loop(p);
          p.active_set_copies = true;
+       }},
+      {"two_point_wall_only_active_set_own_loop_copies_conditioned", "-tpocm",
+       ", two-point rows + wall-only shifting + active set with copies + own-loop guard, cond1(M) <= 1e4",
+       [](scheme::lsmps_params<2>& p) {
+         two_point_own_loop(p);
+         p.active_set_copies = true;
+         p.op.max_condition = 1e4;
        }},
       {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {
