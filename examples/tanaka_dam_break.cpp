@@ -12,8 +12,10 @@
 //   --L      particle diameter in mm (default 5: the spacing at which the default wall options get through
 //            the far-wall impact; docs/lsmps_scheme.md, deviation 13)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
-//   --walls  parent_gradient | neumann_points | two_point_wall_only | two_point_wall_only_active_set (default;
-//            cases::tanaka_wall_variants: the library's defaults are parent_gradient)
+//   --walls  a name of cases::tanaka_wall_variants: parent_gradient (the library's defaults) | neumann_points |
+//            two_point_wall_only | two_point_wall_only_active_set (default) | ..._own_loop | ..._own_loop_copies |
+//            two_point_wall_only_active_set_own_loop_copies_conditioned (through the impact at all 31 spacings
+//            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | neumann_points_wall_only_active_set
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md).
