@@ -1042,17 +1042,18 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 31);
+    REQUIRE(v.size() == 32);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
     v[27] = 12;  // own_loop_dirichlet
     v[28] = 13;  // own_loop_one_point
     v[29] = 14;  // own_loop_solves
-    v[30] = 15;  // ppe_fallbacks, the last value
+    v[30] = 15;  // ppe_fallbacks
+    v[31] = 16;  // shift_velocity_clipped, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("31.mpscp", v), b);
+    io::load_simulation(write("32.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);
@@ -1060,6 +1061,7 @@ TEST_SUITE("restart") {
     CHECK(b.counters().own_loop_one_point == 13);
     CHECK(b.counters().own_loop_solves == 14);
     CHECK(b.counters().ppe_fallbacks == 15);
+    CHECK(b.counters().shift_velocity_clipped == 16);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
     md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1071,6 +1073,10 @@ TEST_SUITE("restart") {
     io::load_simulation(write("30.mpscp", head(30)), b30);
     CHECK(b30.counters().own_loop_solves == 14);
     CHECK(b30.counters().ppe_fallbacks == 0);
+    md_sim b31(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("31.mpscp", head(31)), b31);
+    CHECK(b31.counters().ppe_fallbacks == 15);
+    CHECK(b31.counters().shift_velocity_clipped == 0);
     md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("25.mpscp", head(25)), b25);
     CHECK(b25.counters().filter_amplifying == 7);
@@ -1084,9 +1090,9 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 31"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 32"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("32.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 32 values, expected 31"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("33.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 33 values, expected 32"), mpskit::error);
   }
 }

@@ -524,6 +524,58 @@ TEST_SUITE("tanaka_shift") {
     CHECK((x - c.x - c.dx).cwiseAbs().maxCoeff() <= 1e-17);
   }
 
+  TEST_CASE("regularize: limit_to_neighbour_range keeps eq. 91 exact inside the data and stops its extrapolation") {
+    // (1) The linear field of the case above on a jittered lattice, every interior particle shifted by at most
+    // α_S L = 0.01 L: x_i + δx_i lies well inside its neighbours' hull, so A (x_i + δx_i) lies inside the range of
+    // their values and the limiter leaves eq. 91 exact (rounding: 1e-15) and counts nothing there.
+    const std::uint64_t seed = test_seed() + 3;
+    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
+    std::mt19937_64 rng(seed);
+    shift_case<2> c(lattice<2>(10, 10, 0.2, rng));
+    c.build();
+    c.run();
+    mat<2> A;
+    A << 0.3, -1.2, 2.0, 0.7;
+    const points<2> u = A * c.x;
+    int interior = 0, clipped_interior = 0;
+    for (index_t i = 0; i < c.x.cols(); ++i) {
+      const auto nb = c.nl.neighbours(i);
+      bool inside = true;  // neighbours on all four sides within 1.5 L: not on the lattice's edge
+      for (int a = 0; a < 2; ++a)
+        for (const double sgn : {-1.0, 1.0}) {
+          bool any = false;
+          for (const auto jj : nb) any = any || sgn * (c.x(a, static_cast<index_t>(jj)) - c.x(a, i)) > 0.5 * c.L[i];
+          inside = inside && any;
+        }
+      if (!inside) continue;
+      ++interior;
+      vec<2> un = u.col(i) + A * c.dx.col(i);
+      clipped_interior += regularize::limit_to_neighbour_range<2>(un, u, i, nb);
+      CHECK((un - A * (c.x.col(i) + c.dx.col(i))).cwiseAbs().maxCoeff() <= 1e-15);
+    }
+    REQUIRE(interior >= 36);
+    CHECK(clipped_interior == 0);
+
+    // (2) The 2 mm dam-break failure in miniature (docs/lsmps_scheme.md "The shifted velocity's limiter"): a
+    // particle at height y = 0.05 L over a floor moving at 10 m/s along it, its neighbours its copy on the floor
+    // (wall velocity 0) and one particle 2 L away at 9 m/s. The one-sided gradient is ∂u/∂y = (10 − 0)/y, and a
+    // shift δy = α_S L = 0.01 L away from the floor adds 10 · 0.01/0.05 = 2 m/s (20 %) per step. Clipped to the
+    // range [0, 10] of the data: unchanged, counted. A shift toward the slower neighbour is inside the range: kept.
+    points<2> uw(2, 3);
+    uw << 10.0, 0.0, 9.0, 0.0, 0.0, 0.0;
+    const std::vector<index_t> nbw{1, 2};
+    mat<2> G;
+    G << 0.0, 10.0 / 0.05, 0.0, 0.0;  // per L: ∂u_x/∂y
+    vec<2> up = uw.col(0) + G * vec<2>(0.0, 0.01);
+    REQUIRE(up(0) == doctest::Approx(12.0));
+    CHECK(regularize::limit_to_neighbour_range<2>(up, uw, 0, nbw));
+    CHECK(up(0) == 10.0);
+    CHECK(up(1) == 0.0);
+    vec<2> down = uw.col(0) + vec<2>(-0.5, 0.0);
+    CHECK(!regularize::limit_to_neighbour_range<2>(down, uw, 0, nbw));
+    CHECK(down(0) == 9.5);
+  }
+
   TEST_CASE("regularize: tanaka shift refuses bad input") {
     using P = regularize::tanaka_shift_params;
     CHECK_NOTHROW(P{}.validate());

@@ -76,7 +76,9 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 /// two_point_wall_only_active_set_own_loop_wall (the same with own_loop.wall_candidate_packing = 0.9),
 /// two_point_wall_only_active_set_own_loop_copies (the own-loop variant with active_set_copies),
 /// two_point_wall_only_active_set_own_loop_copies_conditioned (the same with op.max_condition = 1e4: a fit whose
-/// moment matrix has cond1 above 1e4 falls back to a lower order; docs/lsmps_scheme.md "Ill-conditioned fits") and
+/// moment matrix has cond1 above 1e4 falls back to a lower order; docs/lsmps_scheme.md "Ill-conditioned fits"),
+/// two_point_wall_only_active_set_own_loop_copies_conditioned_limited (the same with shift_velocity_limit:
+/// docs/lsmps_scheme.md "The shifted velocity's limiter") and
 /// neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
 /// configuration of the main example, examples/multires_dam_break.cpp). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
 struct tanaka_wall_variant {
@@ -127,6 +129,15 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
          two_point_own_loop(p);
          p.active_set_copies = true;
          p.op.max_condition = 1e4;
+       }},
+      {"two_point_wall_only_active_set_own_loop_copies_conditioned_limited", "-tpocml",
+       ", two-point rows + wall-only shifting + active set with copies + own-loop guard, cond1(M) <= 1e4, "
+       "shifted velocity limited",
+       [](scheme::lsmps_params<2>& p) {
+         two_point_own_loop(p);
+         p.active_set_copies = true;
+         p.op.max_condition = 1e4;
+         p.shift_velocity_limit = true;
        }},
       {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {

@@ -285,6 +285,29 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   return rep;
 }
 
+/// Limits eq. 91's shifted velocity (ours, opt-in; docs/lsmps_scheme.md "The shifted velocity's limiter"):
+/// each component of u_new is clipped to the range of that component over u_i and the velocities u_j of i's
+/// neighbours (`neighbours`, a range of indices into u; a wall copy carries the wall velocity). For one
+/// evaluation point this is Barth and Jespersen's limiter (the Taylor step scaled by φ ≤ 1 so that no new
+/// extremum is made): eq. 91 extrapolates ∇u beyond the data where a particle is shifted away from the only
+/// neighbours that define its gradient, e.g. a particle sliding on a floor beside its copy at the wall
+/// velocity, whose δu = u δy / y then grows |u| by a fixed amount per step (Tanaka's dam break at 2 mm).
+/// A field linear over the neighbourhood is left exact where x_i + δx_i stays inside the neighbours' bounding
+/// range of values (the interior). Returns true when a component was clipped.
+template <int D, class Neighbours>
+bool limit_to_neighbour_range(vec<D>& u_new, const points<D>& u, index_t i, const Neighbours& neighbours) {
+  vec<D> lo = u.col(i), hi = lo;
+  for (const auto jj : neighbours) {
+    const index_t j = static_cast<index_t>(jj);
+    lo = lo.cwiseMin(vec<D>(u.col(j)));
+    hi = hi.cwiseMax(vec<D>(u.col(j)));
+  }
+  const vec<D> clipped = u_new.cwiseMax(lo).cwiseMin(hi);
+  const bool changed = (clipped.array() != u_new.array()).any();
+  u_new = clipped;
+  return changed;
+}
+
 /// Commits a shift: x_i += δx_i and u_i += (∇u)_i δx_i (Tanaka 2018 eq. 91, first-order Taylor) for
 /// i < dx.cols(). grad_u(i) returns mat<D> with (∇u)_ab = ∂u_a/∂x_b, evaluated at the unshifted
 /// positions (e.g. the caller's LSMPS type-A velocity gradient, computed before this call).

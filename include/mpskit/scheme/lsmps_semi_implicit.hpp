@@ -217,6 +217,11 @@ struct lsmps_params {
   /// keep one copy, so nothing else holds the particle off the other face). Off, the shifting walked a particle
   /// into an 18.4° concave corner of the paper's channel and the PPE failed (docs/resolution.md).
   bool shift_merged_faces = true;
+  /// Eq. 91's δu = ∇u δx clipped per component to the range of u over the particle and its neighbours (copies
+  /// at the wall velocity included): regularize::limit_to_neighbour_range, Barth and Jespersen's limiter for one
+  /// point (ours, opt-in; docs/lsmps_scheme.md "The shifted velocity's limiter"). Counted
+  /// (lsmps_counters::shift_velocity_clipped). Off: Tanaka's eq. 91, every earlier result unchanged.
+  bool shift_velocity_limit = false;
   /// ε of the velocity filter in the one-sided band (particles with a wall copy, a pressure-boundary or a
   /// free-surface particle among their neighbours, or a neighbour of another size beyond size_ratio; a
   /// deviation, regularize/boundary_filter.hpp): with the
@@ -312,6 +317,7 @@ struct lsmps_counters {
   long small_diameter_events = 0;  ///< copies with 1 − r σ < small_ratio (L′ = 2L), summed
   long guarded = 0;                ///< wall-crossing guard activations (a deviation: should stay 0)
   long shift_limited = 0;          ///< shifts limited to α_S L (eq. 100)
+  long shift_velocity_clipped = 0; ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
   long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
@@ -435,7 +441,7 @@ class lsmps_semi_implicit {
                            c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
                            c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
                            c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
-                           c.own_loop_solves, c.ppe_fallbacks};
+                           c.own_loop_solves, c.ppe_fallbacks, c.shift_velocity_clipped};
     for (long v : counts)
       if (v < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", v, ")");
     if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
@@ -954,11 +960,30 @@ class lsmps_semi_implicit {
     c_.shift_limited += static_cast<long>(rep.limited);
     if (p_.shift_merged_faces && walls_ && nc_ > n) keep_off_merged_faces(n);
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
+    if (!p_.shift_velocity_limit) {
+      for_each_particle(exec::par{}, n, [&](index_t i) {
+        if (!active[static_cast<std::size_t>(i)] || (dx_.col(i).array() == 0.0).all()) return;
+        const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
+        s_.u().col(i) += G * dx_.col(i);  // eq. 91
+      });
+      return;
+    }
+    // The limiter reads every particle's velocity before the shift: the new ones go to u_new_ first.
+    u_new_ = s_.u().leftCols(n);
+    std::vector<std::uint8_t> clipped(static_cast<std::size_t>(n), 0);
+    thread_local std::vector<index_t> nb;
     for_each_particle(exec::par{}, n, [&](index_t i) {
       if (!active[static_cast<std::size_t>(i)] || (dx_.col(i).array() == 0.0).all()) return;
       const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
-      s_.u().col(i) += G * dx_.col(i);  // eq. 91
+      vec<D> un = s_.u().col(i) + G * dx_.col(i);  // eq. 91
+      nb.clear();
+      for (const auto jj : nl_.neighbours(i))
+        if (participates(static_cast<index_t>(jj))) nb.push_back(static_cast<index_t>(jj));
+      clipped[static_cast<std::size_t>(i)] = regularize::limit_to_neighbour_range(un, s_.u(), i, nb);
+      u_new_.col(i) = un;
     });
+    s_.u().leftCols(n) = u_new_;
+    c_.shift_velocity_clipped += std::count(clipped.begin(), clipped.end(), std::uint8_t{1});
   }
   /// Deviation 14 (docs/lsmps_scheme.md): for particle i with copies, every face within α_w L_i whose foot lies
   /// on it and which is seen from the front ((x_i − q)·n ≥ 0, as wall/imaginary.hpp decides copies) but whose
@@ -1694,7 +1719,7 @@ class lsmps_semi_implicit {
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
-  points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_;
+  points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_, u_new_;
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   std::vector<std::uint8_t> active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
   // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
