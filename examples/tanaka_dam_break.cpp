@@ -18,7 +18,9 @@
 //            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | neumann_points_wall_only_active_set
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
-//            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md).
+//            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with
+//            two_point_wall_only_active_set_own_loop_copies_conditioned_limited 2 mm gets through the impact,
+//            1.5 mm ends at step 144 (T = 0.15) in a BiCGSTAB breakdown (docs/lsmps_scheme.md).
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
 //            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
