@@ -141,6 +141,21 @@ points<D> literal_shift(const shift_case<D>& c, const P& part, const regularize:
   return out;
 }
 
+
+/// The jittered 10 × 10 lattice of the eq. 91 tests after one shift (seed test_seed() + offset), and the linear
+/// velocity field u = A x the tests put on it.
+struct shifted_linear {
+  std::uint64_t seed;
+  std::mt19937_64 rng;
+  shift_case<2> c;
+  mat<2> A;
+  explicit shifted_linear(std::uint64_t offset) : seed(test_seed() + offset), rng(seed), c(lattice<2>(10, 10, 0.2, rng)) {
+    c.build();
+    c.run();
+    A << 0.3, -1.2, 2.0, 0.7;
+  }
+};
+
 }  // namespace
 
 TEST_SUITE("tanaka_shift") {
@@ -508,14 +523,10 @@ TEST_SUITE("tanaka_shift") {
   }
 
   TEST_CASE("regularize: apply_tanaka_shift reproduces a linear velocity field (eq. 91)") {
-    const std::uint64_t seed = test_seed() + 2;
-    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
-    std::mt19937_64 rng(seed);
-    shift_case<2> c(lattice<2>(10, 10, 0.2, rng));
-    c.build();
-    c.run();
-    mat<2> A;
-    A << 0.3, -1.2, 2.0, 0.7;
+    const shifted_linear s(2);
+    MESSAGE("seed = " << s.seed << " (MPSKIT_SEED)");
+    const shift_case<2>& c = s.c;
+    const mat<2>& A = s.A;
     points<2> u = A * c.x;
     points<2> x = c.x;
     regularize::apply_tanaka_shift<2>(exec::seq{}, c.dx, [&](index_t) { return A; }, x, u);
@@ -528,14 +539,10 @@ TEST_SUITE("tanaka_shift") {
     // (1) The linear field of the case above on a jittered lattice, every interior particle shifted by at most
     // α_S L = 0.01 L: x_i + δx_i lies well inside its neighbours' hull, so A (x_i + δx_i) lies inside the range of
     // their values and the limiter leaves eq. 91 exact (rounding: 1e-15) and counts nothing there.
-    const std::uint64_t seed = test_seed() + 3;
-    MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
-    std::mt19937_64 rng(seed);
-    shift_case<2> c(lattice<2>(10, 10, 0.2, rng));
-    c.build();
-    c.run();
-    mat<2> A;
-    A << 0.3, -1.2, 2.0, 0.7;
+    const shifted_linear s(3);
+    MESSAGE("seed = " << s.seed << " (MPSKIT_SEED)");
+    const shift_case<2>& c = s.c;
+    const mat<2>& A = s.A;
     const points<2> u = A * c.x;
     int interior = 0, clipped_interior = 0;
     for (index_t i = 0; i < c.x.cols(); ++i) {
