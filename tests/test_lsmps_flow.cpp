@@ -936,8 +936,10 @@ TEST_SUITE("dam_break_lsmps") {
     // fits"): the own-loop variant with the wall copies in the active set fails here (T = 3.07): two surface
     // particles 0.04 L apart on the right wall, their two copies at one point with p = 0 and 1.26e4 Pa, and a fit
     // whose points are collinear to within ~1e-3 L (order 1 accepted up to cond1 = 1e8) reads a vertical gradient
-    // 1197 times the largest difference quotient: 10.6 -> 154 m/s in one step. With op.max_condition = 1e4 such a
-    // fit falls back (regularised), and the run gets through the impact with issue #9's hard-case bounds. Measured
+    // 1197 times the largest difference quotient: 10.6 -> 154 m/s in one step. With op.max_condition = 1e4 such
+    // fits fall back (a lower order, else regularised; whether this one arises then is not known, the runs part
+    // long before: the largest such ratio over the run is 3.4), and the run gets through the impact with issue #9's
+    // hard-case bounds. Measured
     // 2026-12-02: max |u| 2.97 sqrt(gH), no guard activation, closest pair 0.516 L, p >= 0; over the 31 spacings
     // 3.0-6.0 mm 31 reach T = 3.2 (row tpoc_mc1e4), one spacing is one sample, not the claim.
     // The front: within the issue's band widened by one diameter (L / h0 = 0.035 in Z). Measured: 49 of 65 samples
