@@ -15,7 +15,8 @@
 //   --walls  a name of cases::tanaka_wall_variants: parent_gradient (the library's defaults) | neumann_points |
 //            two_point_wall_only | two_point_wall_only_active_set (default) | ..._own_loop | ..._own_loop_copies |
 //            two_point_wall_only_active_set_own_loop_copies_conditioned (through the impact at all 31 spacings
-//            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | neumann_points_wall_only_active_set
+//            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | ..._conditioned_limited (2 mm too) |
+//            neumann_points_wall_only_active_set
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with

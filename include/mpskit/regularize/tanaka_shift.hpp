@@ -285,6 +285,11 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   return rep;
 }
 
+/// Every neighbour counts (the default predicate of limit_to_neighbour_range).
+struct all_neighbours {
+  bool operator()(index_t) const { return true; }
+};
+
 /// Limits eq. 91's shifted velocity (ours, opt-in; docs/lsmps_scheme.md "The shifted velocity's limiter"):
 /// each component of u_new is clipped to the range of that component over u_i and the velocities u_j of i's
 /// neighbours (`neighbours`, a range of indices into u; a wall copy carries the wall velocity). For one
@@ -293,12 +298,15 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
 /// neighbours that define its gradient, e.g. a particle sliding on a floor beside its copy at the wall
 /// velocity, whose δu = u δy / y then grows |u| by a fixed amount per step (Tanaka's dam break at 2 mm).
 /// A field linear over the neighbourhood is left exact where x_i + δx_i stays inside the neighbours' bounding
-/// range of values (the interior). Returns true when a component was clipped.
-template <int D, class Neighbours>
-bool limit_to_neighbour_range(vec<D>& u_new, const points<D>& u, index_t i, const Neighbours& neighbours) {
+/// range of values (the interior). Only the neighbours j with counted(j) enter (default: all). Returns true when
+/// a component was clipped.
+template <int D, class Neighbours, class Counted = all_neighbours>
+bool limit_to_neighbour_range(vec<D>& u_new, const points<D>& u, index_t i, const Neighbours& neighbours,
+                              const Counted& counted = {}) {
   vec<D> lo = u.col(i), hi = lo;
   for (const auto jj : neighbours) {
     const index_t j = static_cast<index_t>(jj);
+    if (!counted(j)) continue;
     lo = lo.cwiseMin(vec<D>(u.col(j)));
     hi = hi.cwiseMax(vec<D>(u.col(j)));
   }

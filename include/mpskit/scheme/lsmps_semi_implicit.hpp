@@ -971,15 +971,12 @@ class lsmps_semi_implicit {
     // The limiter reads every particle's velocity before the shift: the new ones go to u_new_ first.
     u_new_ = s_.u().leftCols(n);
     std::vector<std::uint8_t> clipped(static_cast<std::size_t>(n), 0);
-    thread_local std::vector<index_t> nb;
     for_each_particle(exec::par{}, n, [&](index_t i) {
       if (!active[static_cast<std::size_t>(i)] || (dx_.col(i).array() == 0.0).all()) return;
       const mat<D> G = detail::component_gradients(op_, x, nl_, i, comp_, participates);
       vec<D> un = s_.u().col(i) + G * dx_.col(i);  // eq. 91
-      nb.clear();
-      for (const auto jj : nl_.neighbours(i))
-        if (participates(static_cast<index_t>(jj))) nb.push_back(static_cast<index_t>(jj));
-      clipped[static_cast<std::size_t>(i)] = regularize::limit_to_neighbour_range(un, s_.u(), i, nb);
+      clipped[static_cast<std::size_t>(i)] =
+          regularize::limit_to_neighbour_range(un, s_.u(), i, nl_.neighbours(i), participates);
       u_new_.col(i) = un;
     });
     s_.u().leftCols(n) = u_new_;
