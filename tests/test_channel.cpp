@@ -848,7 +848,7 @@ void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_co
                              c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
                              c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
                              c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
-                             c.own_loop_solves};
+                             c.own_loop_solves, c.ppe_fallbacks, c.shift_velocity_clipped, c.ppe_breakdown_restarts};
   };
   CHECK(v(a) == v(b));
   CHECK(std::bit_cast<std::uint64_t>(a.inflow_volume) == std::bit_cast<std::uint64_t>(b.inflow_volume));
@@ -1042,7 +1042,7 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 32);
+    REQUIRE(v.size() == 33);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
@@ -1050,10 +1050,11 @@ TEST_SUITE("restart") {
     v[28] = 13;  // own_loop_one_point
     v[29] = 14;  // own_loop_solves
     v[30] = 15;  // ppe_fallbacks
-    v[31] = 16;  // shift_velocity_clipped, the last value
+    v[31] = 16;  // shift_velocity_clipped
+    v[32] = 17;  // ppe_breakdown_restarts, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("32.mpscp", v), b);
+    io::load_simulation(write("33.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);
@@ -1062,6 +1063,7 @@ TEST_SUITE("restart") {
     CHECK(b.counters().own_loop_solves == 14);
     CHECK(b.counters().ppe_fallbacks == 15);
     CHECK(b.counters().shift_velocity_clipped == 16);
+    CHECK(b.counters().ppe_breakdown_restarts == 17);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
     md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1077,6 +1079,10 @@ TEST_SUITE("restart") {
     io::load_simulation(write("31.mpscp", head(31)), b31);
     CHECK(b31.counters().ppe_fallbacks == 15);
     CHECK(b31.counters().shift_velocity_clipped == 0);
+    md_sim b32(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("32.mpscp", head(32)), b32);
+    CHECK(b32.counters().shift_velocity_clipped == 16);
+    CHECK(b32.counters().ppe_breakdown_restarts == 0);
     md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("25.mpscp", head(25)), b25);
     CHECK(b25.counters().filter_amplifying == 7);
@@ -1090,9 +1096,9 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 32"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 33"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("33.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 33 values, expected 32"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("34.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 34 values, expected 33"), mpskit::error);
   }
 }

@@ -440,6 +440,60 @@ TEST_SUITE("solver") {
     CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("parallel_min_rows"), mpskit::error);
   }
 
+  TEST_CASE("solver: a BiCGSTAB breakdown from the warm start is restarted from 0 (breakdown_restart)") {
+    // A = [[1, 2], [0, 1]] (unit diagonal: Jacobi is the identity), b = (1, 0), exact solution (1, 0). From
+    // x0 = (−2, 1) the residual is r0 = (1, −1) and v = A r0 = (−1, −1) is orthogonal to the shadow residual
+    // r0 (r0ᵀ A r0 = 0: A's symmetric part [[1, 1], [1, 1]] is singular along r0), so BiCGSTAB's first
+    // α = ρ / (r0 · v) divides by exactly 0 and the iterate is not finite. From 0, r0 = b and the 2 × 2 solve
+    // ends in one iteration, exact. Eigen's own restart (|ρ| small) does not catch this one (ρ = 2).
+    ppe::matrix A(2, 2);
+    A.insert(0, 0) = 1.0;
+    A.insert(0, 1) = 2.0;
+    A.insert(1, 1) = 1.0;
+    A.makeCompressed();
+    const Eigen::Vector2d b(1.0, 0.0), x0(-2.0, 1.0);
+    ppe::solver_params off;
+    off.breakdown_restart = false;
+    ppe::bicgstab_jacobi plain(off);
+    REQUIRE(plain.compute(A) == Eigen::Success);
+    Eigen::VectorXd xp = x0;
+    const ppe::solve_report rp = plain.solve(b, xp);
+    CHECK(rp.info == Eigen::NumericalIssue);
+    CHECK(!xp.allFinite());
+    CHECK(!rp.breakdown_restart);
+    CHECK(plain.breakdown_restarts() == 0);
+    ppe::solver_params on;  // the default
+    REQUIRE(on.breakdown_restart);
+    ppe::bicgstab_jacobi restarted(on);
+    REQUIRE(restarted.compute(A) == Eigen::Success);
+    Eigen::VectorXd x = x0;
+    const ppe::solve_report r = restarted.solve(b, x);
+    CHECK(r.info == Eigen::Success);
+    CHECK(r.breakdown_restart);
+    CHECK(r.iterations == 2);  // the broken one and the restart's, within max_iterations
+    CHECK(x[0] == doctest::Approx(1.0).epsilon(1e-14));
+    CHECK(std::abs(x[1]) <= 1e-14);
+    CHECK(restarted.breakdown_restarts() == 1);
+    // Through ppe::with_fallback the restart succeeds first, so the fallback is not used; the flag passes on.
+    ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu> fb(on);
+    REQUIRE(fb.compute(A) == Eigen::Success);
+    Eigen::VectorXd xf = x0;
+    const ppe::solve_report rf = fb.solve(b, xf);
+    CHECK(rf.breakdown_restart);
+    CHECK(!rf.fallback);
+    CHECK(fb.fallbacks() == 0);
+    // Capped at one iteration the restart has none left: the failure goes to the fallback, the flag stays false.
+    ppe::solver_params one = on;
+    one.max_iterations = 1;
+    ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu> fb1(one);
+    REQUIRE(fb1.compute(A) == Eigen::Success);
+    Eigen::VectorXd x1 = x0;
+    const ppe::solve_report r1 = fb1.solve(b, x1);
+    CHECK(r1.fallback);
+    CHECK(!r1.breakdown_restart);
+    CHECK(x1[0] == doctest::Approx(1.0).epsilon(1e-14));
+  }
+
   TEST_CASE("solver: with_fallback solves with the direct solver only when the iterative one fails") {
     // ppe/fallback.hpp with BiCGSTAB-Jacobi and Eigen's SparseLU on a non-symmetric convection-diffusion matrix
     // (20 × 20 grid), b = A u for a known u.

@@ -70,6 +70,7 @@ void check_same_counters(const scheme::semi_implicit_counters& a, const scheme::
   CHECK(a.reorders == b.reorders);
   CHECK(a.negative_clamped == b.negative_clamped);
   CHECK(a.ppe_fallbacks == b.ppe_fallbacks);
+  CHECK(a.ppe_breakdown_restarts == b.ppe_breakdown_restarts);
 }
 }  // namespace
 
@@ -163,7 +164,8 @@ TEST_SUITE("restart") {
     REQUIRE(scale > 0.0);
     CHECK(diff <= 1e-9 * scale);
 
-    // The checkpoint keeps the count; a file written before it (8 counters) loads with 0.
+    // The checkpoint keeps the count; files written before it (8 counters) or before ppe_breakdown_restarts (9)
+    // load with the missing counters 0.
     io::save_simulation(tmp / "c.mpscp", a);
     simulation<fallback_defaults> b(capped, d.initial());
     io::load_simulation(tmp / "c.mpscp", b);
@@ -172,8 +174,10 @@ TEST_SUITE("restart") {
     io::checkpoint_sections all;
     io::load_checkpoint(tmp / "c.mpscp", st, all);
     std::vector<std::int64_t> v = all.get_int64s("semi_implicit.counters");
-    REQUIRE(v.size() == 9);
+    REQUIRE(v.size() == 10);
     CHECK(v[8] == 10);
+    CHECK(v[9] == 0);  // no breakdown here
+    v[9] = 3;          // a count to read back
     const auto write = [&](const std::string& name, std::size_t n) {  // the file with the first n counters
       io::checkpoint_sections old;
       old.add_doubles("semi_implicit.time", all.get_doubles("semi_implicit.time"));
@@ -183,13 +187,21 @@ TEST_SUITE("restart") {
       io::save_checkpoint(tmp / name, st, old);
       return tmp / name;
     };
+    simulation<fallback_defaults> c10(capped, d.initial());
+    io::load_simulation(write("10.mpscp", 10), c10);
+    CHECK(c10.counters().ppe_fallbacks == 10);
+    CHECK(c10.counters().ppe_breakdown_restarts == 3);
+    simulation<fallback_defaults> c9(capped, d.initial());
+    io::load_simulation(write("9.mpscp", 9), c9);
+    CHECK(c9.counters().ppe_fallbacks == 10);
+    CHECK(c9.counters().ppe_breakdown_restarts == 0);
     simulation<fallback_defaults> c(capped, d.initial());
     io::load_simulation(write("8.mpscp", 8), c);
     CHECK(c.counters().steps == 10);
     CHECK(c.counters().ppe_iterations == a.counters().ppe_iterations);
     CHECK(c.counters().ppe_fallbacks == 0);
     simulation<fallback_defaults> e(capped, d.initial());
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 9"),
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 10"),
                          mpskit::error);
   }
 }

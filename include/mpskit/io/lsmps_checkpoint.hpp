@@ -5,8 +5,8 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×32, lsmps_counters' integer counters in the order of
-///                               detail::lsmps_counter_values (older files hold 24 to 31, the missing ones
+///   `lsmps.counters`            int64 ×33, lsmps_counters' integer counters in the order of
+///                               detail::lsmps_counter_values (older files hold 24 to 32, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume}
 ///   `lsmps.time_step`           int64 {halvings, held, changes}
@@ -41,12 +41,13 @@ inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counte
           c.wrong_sign_rows, c.active_set_rows, c.active_set_solves, c.active_set_unfinished, c.list_builds,
           c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
           c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point, c.own_loop_solves,
-          c.ppe_fallbacks, c.shift_velocity_clipped};
+          c.ppe_fallbacks, c.shift_velocity_clipped, c.ppe_breakdown_restarts};
 }
-inline constexpr std::size_t lsmps_counter_count = 32;
+inline constexpr std::size_t lsmps_counter_count = 33;
 /// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01)
 /// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
-/// shift_velocity_clipped (31, 2026-12-02): still read, the missing counters 0.
+/// shift_velocity_clipped (31, 2026-12-02) or ppe_breakdown_restarts (32, 2026-12-03): still read, the missing
+/// counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 
@@ -135,7 +136,7 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
                     &c.active_set_unfinished, &c.list_builds, &c.reorders, &c.filtered, &c.splits, &c.merges,
                     &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying, &c.filter_tapered,
                     &c.own_loop_checked, &c.own_loop_dirichlet, &c.own_loop_one_point, &c.own_loop_solves,
-                    &c.ppe_fallbacks, &c.shift_velocity_clipped};
+                    &c.ppe_fallbacks, &c.shift_velocity_clipped, &c.ppe_breakdown_restarts};
   static_assert(sizeof(fields) / sizeof(fields[0]) == detail::lsmps_counter_count);
   for (std::size_t k = 0; k < cv.size(); ++k) *fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];

@@ -7,8 +7,9 @@
 ///   `semi_implicit.time`       doubles {t}                          simulated time (s), bitwise
 ///   `semi_implicit.l0`         doubles {l0}                         spacing the run used (checked on load)
 ///   `semi_implicit.counters`   int64 {steps, ppe_iterations, ppe_iterations_max, pinned_components,
-///                                     isolated, list_builds, reorders, negative_clamped, ppe_fallbacks}
-///                                     (files before ppe_fallbacks, 2026-12-02, hold 8 values: still read, with 0)
+///                                     isolated, list_builds, reorders, negative_clamped, ppe_fallbacks,
+///                                     ppe_breakdown_restarts} (files before ppe_fallbacks, 2026-12-02, hold 8
+///                                     values, before ppe_breakdown_restarts, 2026-12-03, 9: still read, with 0)
 ///   `semi_implicit.time_step`  int64 {halvings, held, changes}
 ///
 /// Not saved: the neighbour list and the solver's factorisation. The scheme builds its list from the
@@ -44,7 +45,7 @@ checkpoint_sections simulation_sections(const Sim& sim) {
   const scheme::semi_implicit_counters& c = sim.counters();
   s.add_int64s("semi_implicit.counters", {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.pinned_components,
                                           c.isolated, c.list_builds, c.reorders, c.negative_clamped,
-                                          c.ppe_fallbacks});
+                                          c.ppe_fallbacks, c.ppe_breakdown_restarts});
   const scheme::time_step_state& ts = sim.time_step().state();
   s.add_int64s("semi_implicit.time_step", scheme::section_values(ts));
   return s;
@@ -82,8 +83,8 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
     fail("load_simulation: '", file, "': written with l0 = ", l0, " m, the simulation has l0 = ", sim.params().l0, " m");
   const std::vector<std::int64_t> c = s.get_int64s("semi_implicit.counters");
   const std::vector<std::int64_t> ts = s.get_int64s("semi_implicit.time_step");
-  if (c.size() != 9 && c.size() != 8)
-    fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected 9 (or 8 from older files)");
+  if (c.size() < 8 || c.size() > 10)
+    fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected 10 (or 8 to 9 from older files)");
   if (ts.size() != 3) fail("load_simulation: '", file, "': section 'semi_implicit.time_step' holds ", ts.size(), " values, expected 3");
   for (std::int64_t v : c)
     if (v < 0) fail("load_simulation: '", file, "': a counter is negative (", v, ")");
@@ -100,6 +101,7 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
   k.reorders = c[6];
   k.negative_clamped = c[7];
   k.ppe_fallbacks = c.size() > 8 ? c[8] : 0;
+  k.ppe_breakdown_restarts = c.size() > 9 ? c[9] : 0;
   const scheme::time_step_state tss = scheme::time_step_state_from(ts);
   sim.state() = std::move(st);
   sim.restore(t, k, tss);

@@ -40,6 +40,9 @@ struct solver_params {
   /// unmatched unknowns. Off by default (ours; docs/lsmps_scheme.md deviation 7).
   bool ilut_reuse_across_changes = false;
   double ilut_reuse_unmatched = 0.1;  ///< largest fraction of unmatched unknowns for which the factors are kept
+  /// A solve whose iterate is not finite (a Krylov breakdown) is restarted once from x = 0 with the iterations
+  /// left (ours; docs/run.md, "Krylov breakdowns"). Only solves that would otherwise fail are affected.
+  bool breakdown_restart = true;
   /// Systems of fewer unknowns are solved with Eigen's own threads held to one (its sparse × vector product
   /// would otherwise open a parallel region per product; core/exec.hpp, eigen_threads_scope). The default is
   /// exec::par's threshold: on a 2-core machine it is 2.66× faster with one competing thread and the same when
@@ -196,6 +199,7 @@ class eigen_iterative {
   long refactorised_after_failure() const { return relagged_; }  ///< lagged solves repeated with fresh factors
   long factorisations() const { return factorisations_; }         ///< ILUT factorisations so far
   long mapped_reuses() const { return mapped_; }  ///< solves with factors kept across a change of the unknowns
+  long breakdown_restarts() const { return breakdowns_; }  ///< solves restarted from 0 after a breakdown
 
  private:
   static constexpr bool lagging = requires(EigenSolver& e) { e.preconditioner().refactor(true); };
@@ -239,10 +243,29 @@ class eigen_iterative {
       x.setZero();
       return r;
     }
+    const Eigen::VectorXd start = p_.breakdown_restart ? x : Eigen::VectorXd();
     x = s_.solveWithGuess(b, x);
     r.info = s_.info();
     r.iterations = s_.iterations();
     r.residual = (*A_ * x - b).norm() / bn;
+    // A Krylov breakdown (the iterate not finite: BiCGSTAB's α = ρ/(r̂₀·v) or β with ω = 0 divide by ~0) is
+    // restarted once from x = 0 within the iteration cap, which changes the shadow residual r̂₀ = b − A x₀ the
+    // breakdown depends on (solver_params::breakdown_restart; ours, docs/run.md). Measured: a 1.5 mm dam-break
+    // PPE (8912 unknowns) broke down after 280 BiCGSTAB-Jacobi iterations from the warm start and converged in
+    // 250 from 0 (docs/lsmps_scheme.md, "The 1.5 mm breakdown").
+    if (p_.breakdown_restart && (!x.allFinite() || !std::isfinite(r.residual)) && b.allFinite() &&
+        r.iterations < p_.max_iterations) {
+      r.breakdown_restart = true;
+      ++breakdowns_;
+      x.setZero();
+      s_.setMaxIterations(p_.max_iterations - r.iterations);
+      x = s_.solveWithGuess(b, x);
+      s_.setMaxIterations(p_.max_iterations);
+      r.info = s_.info();
+      r.iterations += s_.iterations();
+      r.residual = (*A_ * x - b).norm() / bn;
+      if (start.allFinite() && start.size() == x.size() && !x.allFinite()) x = start;  // both failed: x as given
+    }
     // Solvers test their own residual estimates (IDR(s), GMRES and BiCGSTAB drift from the true one). When
     // the estimate claims success but the true residual is above 10× the tolerance, the solve is restarted
     // from its iterate (the residual recomputed exactly: "residual replacement"), at most 3 times within the
@@ -272,7 +295,7 @@ class eigen_iterative {
   long since_ = 0;        // solves since the last factorisation
   bool factored_ = false;  // the last factorisation succeeded
   bool lagged_ = false;    // the current solve uses kept factors
-  long relagged_ = 0, factorisations_ = 0, mapped_ = 0;
+  long relagged_ = 0, factorisations_ = 0, mapped_ = 0, breakdowns_ = 0;
   index_t factor_rows_ = 0;        // rows of the factorised system
   std::vector<index_t> to_factor_;  // current unknown → factorised row (empty: the same unknowns)
 };

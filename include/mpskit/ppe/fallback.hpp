@@ -51,7 +51,7 @@ class with_fallback {
 
   /// Solves A x = b from x with the primary; when it fails, with the fallback (factorised now). The report is
   /// the primary's when it succeeded, otherwise the fallback's with fallback = true, the iterations of both
-  /// and the primary's lagged_retry.
+  /// and the primary's lagged_retry and breakdown_restart.
   solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     solve_report r;
     if (primary_ok_) {
@@ -70,6 +70,7 @@ class with_fallback {
     }
     f.iterations += r.iterations;
     f.lagged_retry = r.lagged_retry;
+    f.breakdown_restart = r.breakdown_restart;
     f.fallback = true;
     return f;
   }

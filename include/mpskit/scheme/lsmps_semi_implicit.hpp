@@ -311,6 +311,7 @@ struct lsmps_counters {
   long ppe_iterations_max = 0;     ///< largest per step
   long ppe_lagged_retries = 0;     ///< lagged-ILUT solves (solver_params::ilut_reuse) repeated with fresh factors
   long ppe_fallbacks = 0;          ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
+  long ppe_breakdown_restarts = 0; ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
   long pinned_components = 0;      ///< PPE parts with no Dirichlet row, pinned (summed over steps)
   long isolated = 0;               ///< isolated particle-steps
   long copies = 0;                 ///< imaginary copies made (summed over steps)
@@ -441,7 +442,7 @@ class lsmps_semi_implicit {
                            c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
                            c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
                            c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
-                           c.own_loop_solves, c.ppe_fallbacks, c.shift_velocity_clipped};
+                           c.own_loop_solves, c.ppe_fallbacks, c.shift_velocity_clipped, c.ppe_breakdown_restarts};
     for (long v : counts)
       if (v < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", v, ")");
     if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
@@ -1459,6 +1460,7 @@ class lsmps_semi_implicit {
                                      same_unknowns, to_previous_.empty() ? nullptr : &to_previous_);
     c_.ppe_lagged_retries += last_solve_.lagged_retry;
     c_.ppe_fallbacks += last_solve_.fallback;
+    c_.ppe_breakdown_restarts += last_solve_.breakdown_restart;
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     for (index_t r = 0; r < m; ++r) {
@@ -1632,6 +1634,7 @@ class lsmps_semi_implicit {
     }, adjoint_same);
     c_.ppe_lagged_retries += adjoint.lagged_retry;
     c_.ppe_fallbacks += adjoint.fallback;
+    c_.ppe_breakdown_restarts += adjoint.breakdown_restart;
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {

@@ -129,6 +129,7 @@ struct semi_implicit_counters {
   long reorders = 0;              ///< cell reorders
   long negative_clamped = 0;      ///< pressures clamped to zero (summed)
   long ppe_fallbacks = 0;         ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
+  long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
 };
 
 /// Particle state of the classic scheme: core fields + pressure + number density.
@@ -545,6 +546,7 @@ class semi_implicit {
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     c_.ppe_fallbacks += last_solve_.fallback;
+    c_.ppe_breakdown_restarts += last_solve_.breakdown_restart;
     long clamped = 0;
     for (index_t r = 0; r < m; ++r) {
       double v = sol[r];
