@@ -181,6 +181,8 @@ int main(int argc, char** argv) {
                 r.p_min, r.p_min / r.rho_g_h, r.p_min_copies);
     std::printf("  closest fluid pair %.3f L (at T = %.2f); wall-crossing guard activations %ld; active-set rows %ld\n",
                 r.min_pair_ratio, r.T_min_pair, r.guarded, r.active_set_rows);
+    std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld (docs/run.md); shifted velocities clipped %ld\n",
+                r.ppe_breakdown_restarts, r.shift_velocity_clipped);
     if (std::isfinite(m.t_arrival))
       std::printf("  probe (%.0f, %.0f) mm wet at T = %.3f; over the next 10 ms%s: impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered "
                   "peak %.0f Pa, every-100-steps peak %.0f Pa (Tanaka: %.0f Pa at 1 mm, every 100 steps)\n",

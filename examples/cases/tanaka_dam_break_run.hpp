@@ -39,6 +39,8 @@ struct tanaka_dam_break_result {
   /// dropped; repeated solves
   long own_loop_checked = 0, own_loop_dirichlet = 0, own_loop_one_point = 0, own_loop_solves = 0;
   long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
+  long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
+  long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -249,6 +251,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.own_loop_one_point = sim.counters().own_loop_one_point;
   r.own_loop_solves = sim.counters().own_loop_solves;
   r.ppe_fallbacks = sim.counters().ppe_fallbacks;
+  r.ppe_breakdown_restarts = sim.counters().ppe_breakdown_restarts;
+  r.shift_velocity_clipped = sim.counters().shift_velocity_clipped;
   return r;
 }
 
