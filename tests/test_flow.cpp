@@ -492,6 +492,26 @@ TEST_SUITE("solver") {
     CHECK(r1.fallback);
     CHECK(!r1.breakdown_restart);
     CHECK(x1[0] == doctest::Approx(1.0).epsilon(1e-14));
+    // b = (1, −1) breaks down from 0 too (r0 = b, A b = (−1, −1) ⟂ b): from x0 = (−3, 1) (r0 = (2, −2)) the
+    // restart fails as well and the error says both; from 0 there is no restart (it would repeat the solve).
+    const Eigen::Vector2d b2(1.0, -1.0), x2(-3.0, 1.0);
+    const auto row = [](index_t r) { return "row " + std::to_string(r); };
+    ppe::bicgstab_jacobi twice(on);
+    Eigen::VectorXd xt = x2;
+    std::string message;
+    try {
+      ppe::solve_checked(twice, A, b2, xt, on, 4, 0.0, row);
+    } catch (const mpskit::error& e) {
+      message = e.what();
+    }
+    CHECK(message.find("broke down at step 4") != std::string::npos);
+    CHECK(message.find("also after a restart from 0") != std::string::npos);
+    CHECK(twice.breakdown_restarts() == 1);
+    ppe::bicgstab_jacobi cold(on);
+    Eigen::VectorXd xz = Eigen::VectorXd::Zero(2);
+    CHECK_THROWS_WITH_AS(ppe::solve_checked(cold, A, b2, xz, on, 5, 0.0, row), doctest::Contains("broke down at step 5"),
+                         mpskit::error);
+    CHECK(cold.breakdown_restarts() == 0);
   }
 
   TEST_CASE("solver: with_fallback solves with the direct solver only when the iterative one fails") {

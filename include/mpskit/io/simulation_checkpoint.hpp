@@ -84,7 +84,7 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
   const std::vector<std::int64_t> c = s.get_int64s("semi_implicit.counters");
   const std::vector<std::int64_t> ts = s.get_int64s("semi_implicit.time_step");
   if (c.size() < 8 || c.size() > 10)
-    fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected 10 (or 8 to 9 from older files)");
+    fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected 10 (or 8 or 9 from older files)");
   if (ts.size() != 3) fail("load_simulation: '", file, "': section 'semi_implicit.time_step' holds ", ts.size(), " values, expected 3");
   for (std::int64_t v : c)
     if (v < 0) fail("load_simulation: '", file, "': a counter is negative (", v, ")");

@@ -41,7 +41,8 @@ struct solver_params {
   bool ilut_reuse_across_changes = false;
   double ilut_reuse_unmatched = 0.1;  ///< largest fraction of unmatched unknowns for which the factors are kept
   /// A solve whose iterate is not finite (a Krylov breakdown) is restarted once from x = 0 with the iterations
-  /// left (ours; docs/run.md, "Krylov breakdowns"). Only solves that would otherwise fail are affected.
+  /// left, unless it started from 0; on lagged ILUT factors only the fresh-factor retry restarts (ours; docs/run.md,
+  /// "Krylov breakdowns"). Only solves that would otherwise fail (or, lagged, be retried) are affected.
   bool breakdown_restart = true;
   /// Systems of fewer unknowns are solved with Eigen's own threads held to one (its sparse × vector product
   /// would otherwise open a parallel region per product; core/exec.hpp, eigen_threads_scope). The default is
@@ -181,7 +182,9 @@ class eigen_iterative {
   /// iterations reported are then both attempts' (each within max_iterations).
   solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     const Eigen::VectorXd x0 = lagged_ ? x : Eigen::VectorXd();
-    solve_report r = solve_once(b, x);
+    // On lagged factors a breakdown goes to the fresh-factor retry (as before breakdown_restart existed), and
+    // only that retry may restart from 0.
+    solve_report r = solve_once(b, x, !lagged_);
     if (r.info != Eigen::Success && lagged_) {  // a lagged factorisation failed: once more with a fresh one
       ++relagged_;
       const long first = r.iterations;
@@ -190,7 +193,7 @@ class eigen_iterative {
         r.info = Eigen::NumericalIssue;  // the fresh factorisation itself failed
         return r;
       }
-      r = solve_once(b, x);
+      r = solve_once(b, x, true);
       r.iterations += first;
       r.lagged_retry = true;
     }
@@ -236,25 +239,28 @@ class eigen_iterative {
     return info;
   }
 
-  solve_report solve_once(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  /// One solve from x; restart: a breakdown may be restarted from 0 (solver_params::breakdown_restart).
+  solve_report solve_once(const Eigen::VectorXd& b, Eigen::VectorXd& x, bool restart) {
     solve_report r;
     const double bn = b.norm();
     if (bn == 0.0) {  // the exact solution is 0: no iteration
       x.setZero();
       return r;
     }
-    const Eigen::VectorXd start = p_.breakdown_restart ? x : Eigen::VectorXd();
+    const bool from_zero = x.isZero(0.0);  // a restart from 0 would repeat this solve
     x = s_.solveWithGuess(b, x);
     r.info = s_.info();
     r.iterations = s_.iterations();
     r.residual = (*A_ * x - b).norm() / bn;
-    // A Krylov breakdown (the iterate not finite: BiCGSTAB's α = ρ/(r̂₀·v) or β with ω = 0 divide by ~0) is
-    // restarted once from x = 0 within the iteration cap, which changes the shadow residual r̂₀ = b − A x₀ the
-    // breakdown depends on (solver_params::breakdown_restart; ours, docs/run.md). Measured: a 1.5 mm dam-break
-    // PPE (8912 unknowns) broke down after 280 BiCGSTAB-Jacobi iterations from the warm start and converged in
-    // 250 from 0 (docs/lsmps_scheme.md, "The 1.5 mm breakdown").
-    if (p_.breakdown_restart && (!x.allFinite() || !std::isfinite(r.residual)) && b.allFinite() &&
-        r.iterations < p_.max_iterations) {
+    // A Krylov breakdown (the iterate not finite: BiCGSTAB's α = ρ/(r̂₀·v), or β after ω = 0, divided by zero or
+    // so nearly that the iterate overflowed) is restarted once from x = 0 within the iteration cap, which changes
+    // the shadow residual r̂₀ = b − A x₀ the breakdown depends on (solver_params::breakdown_restart; ours,
+    // docs/run.md). A near-breakdown that leaves a finite iterate is not caught here (it is a non-convergence),
+    // nor are IDR(s)'s own breakdown exits (finite iterate, NumericalIssue). Measured: a 1.5 mm dam-break PPE
+    // (8912 unknowns) broke down after 280 BiCGSTAB-Jacobi iterations from the warm start and converged in 250
+    // from 0 (docs/lsmps_scheme.md, "The 1.5 mm breakdown").
+    if (restart && p_.breakdown_restart && !from_zero && (!x.allFinite() || !std::isfinite(r.residual)) &&
+        b.allFinite() && r.iterations < p_.max_iterations) {
       r.breakdown_restart = true;
       ++breakdowns_;
       x.setZero();
@@ -264,8 +270,8 @@ class eigen_iterative {
       r.info = s_.info();
       r.iterations += s_.iterations();
       r.residual = (*A_ * x - b).norm() / bn;
-      if (start.allFinite() && start.size() == x.size() && !x.allFinite()) x = start;  // both failed: x as given
     }
+    // (A breakdown inside the residual replacement below is not restarted: it fails the solve.)
     // Solvers test their own residual estimates (IDR(s), GMRES and BiCGSTAB drift from the true one). When
     // the estimate claims success but the true residual is above 10× the tolerance, the solve is restarted
     // from its iterate (the residual recomputed exactly: "residual replacement"), at most 3 times within the

@@ -41,7 +41,8 @@ solve_report solve_checked(S& solver, const matrix& A, const Eigen::VectorXd& b,
     fail("PPE: the preconditioner failed at step ", step, ", t = ", t, " s (", A.rows(), " unknowns)");
   const solve_report rep = solver.solve(b, x);
   if (rep.info != Eigen::Success) {
-    const char* after = rep.fallback ? " (and the fallback solver failed too)" : "";
+    const std::string after = std::string(rep.breakdown_restart ? " (also after a restart from 0 following a breakdown)" : "") +
+                              (rep.fallback ? " (and the fallback solver failed too)" : "");
     const Eigen::VectorXd res = A * x - b;
     // A breakdown leaves a non-finite iterate or residual: name the first non-finite row, not a "largest
     // residual" (a NaN compares false with everything).
