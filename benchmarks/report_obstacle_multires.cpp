@@ -9,7 +9,8 @@
 //
 // Options: --reference mm (default 2.5: the finest spacing whose single run gets over the block, docs/resolution.md),
 // --single L1,L2,... (mm, default 5,4,3.33), --multi L/ratio,... (default 5/2), --T T_end (default 2.4),
-// --repetitions R (default 3), --out DIR (default benchmarks/results). Results: obstacle_multires_speed_error.*
+// --repetitions R (default 3), --out DIR (default benchmarks/results), --walls NAME (a name of
+// cases::tanaka_wall_variants; default cases::obstacle_walls, the main example's). Results: obstacle_multires_speed_error.*
 // and obstacle_multires_speed_up.csv. Not the issue's study (1 mm reference to t = 0.4 s through the far-wall
 // impact, which no spacing gets through yet: issue #7).
 #include <cstdlib>
@@ -63,13 +64,14 @@ int main(int argc, char** argv) try {
   std::vector<double> singles{5.0, 4.0, 10.0 / 3.0};
   std::vector<std::pair<double, double>> multis{{5.0, 2.0}};
   int reps = 3;
-  std::string out = "benchmarks/results";
+  std::string out = "benchmarks/results", walls = cases::obstacle_walls;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
     if (k == "--reference") ref_mm = number(v, "--reference");
     else if (k == "--T") T_end = number(v, "--T");
     else if (k == "--repetitions") reps = static_cast<int>(number(v, "--repetitions"));
     else if (k == "--out") out = v;
+    else if (k == "--walls") walls = v;  // checked by obstacle_params below, before any run
     else if (k == "--single") {
       singles.clear();
       for (const std::string& s : split(v)) singles.push_back(number(s, "--single"));
@@ -80,12 +82,12 @@ int main(int argc, char** argv) try {
         if (slash == std::string::npos) fail("report_obstacle_multires: --multi '", s, "': need L/ratio, e.g. 5/2");
         multis.push_back({number(s.substr(0, slash), "--multi L"), number(s.substr(slash + 1), "--multi ratio")});
       }
-    } else fail("report_obstacle_multires: unknown option '", k, "' (--reference, --single, --multi, --T, --repetitions, --out)");
+    } else fail("report_obstacle_multires: unknown option '", k, "' (--reference, --single, --multi, --T, --repetitions, --out, --walls)");
   }
   if (argc % 2 == 0) fail("report_obstacle_multires: option '", argv[argc - 1], "' has no value");
+  const scheme::lsmps_params<2> p = cases::obstacle_params(walls);
   std::cout << "report_obstacle_multires (" << MPSKIT_BENCH_FLAGS << "), to T = " << T_end << ", reference "
-            << ref_mm << " mm\n";
-  const scheme::lsmps_params<2> p = cases::obstacle_params();
+            << ref_mm << " mm, walls '" << walls << "'\n";
   const cases::tanaka_dam_break_result ref = cases::run_tanaka_dam_break(cases::tanaka_obstacle_config(1e-3 * ref_mm), T_end, p, true);
   if (ref.failed) fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ", ref.failure);
   std::cout << "  reference " << ref_mm << " mm: " << ref.particles << " particles, " << ref.steps << " steps, "
