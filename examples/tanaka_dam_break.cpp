@@ -21,7 +21,8 @@
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with
 //            two_point_wall_only_active_set_own_loop_copies_conditioned_limited 2 mm gets through the impact,
-//            1.5 mm ends at step 144 (T = 0.15) in a BiCGSTAB breakdown (docs/lsmps_scheme.md).
+//            1.5 mm fails in it (T = 2.82) and 1 mm before it (T = 2.58, PPE not converging after 46 guard
+//            activations; docs/lsmps_scheme.md "The 1.5 mm breakdown").
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
 //            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
