@@ -841,16 +841,7 @@ bool same_bits(const A& a, const A& b) {
 
 /// Every counter of the two runs equal.
 void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_counters& b) {
-  const auto v = [](const scheme::lsmps_counters& c) {
-    return std::vector<long>{c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries,
-                             c.pinned_components, c.isolated, c.copies, c.small_diameter_events, c.guarded,
-                             c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
-                             c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
-                             c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
-                             c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
-                             c.own_loop_solves, c.ppe_fallbacks, c.shift_velocity_clipped, c.ppe_breakdown_restarts};
-  };
-  CHECK(v(a) == v(b));
+  for (long scheme::lsmps_counters::*f : scheme::lsmps_counter_fields) CHECK(a.*f == b.*f);
   CHECK(std::bit_cast<std::uint64_t>(a.inflow_volume) == std::bit_cast<std::uint64_t>(b.inflow_volume));
   CHECK(std::bit_cast<std::uint64_t>(a.outflow_volume) == std::bit_cast<std::uint64_t>(b.outflow_volume));
 }

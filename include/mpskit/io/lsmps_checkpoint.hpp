@@ -36,14 +36,12 @@ namespace mpskit::io {
 
 namespace detail {
 inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counters& c) {
-  return {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries, c.pinned_components, c.isolated,
-          c.copies, c.small_diameter_events, c.guarded, c.shift_limited, c.degenerate, c.negative_clamped,
-          c.wrong_sign_rows, c.active_set_rows, c.active_set_solves, c.active_set_unfinished, c.list_builds,
-          c.reorders, c.filtered, c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
-          c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point, c.own_loop_solves,
-          c.ppe_fallbacks, c.shift_velocity_clipped, c.ppe_breakdown_restarts};
+  std::vector<std::int64_t> v;
+  v.reserve(scheme::lsmps_counter_fields.size());
+  for (long scheme::lsmps_counters::*f : scheme::lsmps_counter_fields) v.push_back(c.*f);
+  return v;
 }
-inline constexpr std::size_t lsmps_counter_count = 33;
+inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.size();
 /// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01)
 /// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
 /// shift_velocity_clipped (31, 2026-12-02) or ppe_breakdown_restarts (32, 2026-12-03): still read, the missing
@@ -130,15 +128,7 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
   const std::vector<std::int64_t> tsv = s.get_int64s("lsmps.time_step");
   expect("lsmps.time_step", tsv.size(), 3);
   scheme::lsmps_counters c;
-  long* fields[] = {&c.steps, &c.ppe_iterations, &c.ppe_iterations_max, &c.ppe_lagged_retries, &c.pinned_components,
-                    &c.isolated, &c.copies, &c.small_diameter_events, &c.guarded, &c.shift_limited, &c.degenerate,
-                    &c.negative_clamped, &c.wrong_sign_rows, &c.active_set_rows, &c.active_set_solves,
-                    &c.active_set_unfinished, &c.list_builds, &c.reorders, &c.filtered, &c.splits, &c.merges,
-                    &c.inflow, &c.outflow, &c.outflow_behind, &c.filter_amplifying, &c.filter_tapered,
-                    &c.own_loop_checked, &c.own_loop_dirichlet, &c.own_loop_one_point, &c.own_loop_solves,
-                    &c.ppe_fallbacks, &c.shift_velocity_clipped, &c.ppe_breakdown_restarts};
-  static_assert(sizeof(fields) / sizeof(fields[0]) == detail::lsmps_counter_count);
-  for (std::size_t k = 0; k < cv.size(); ++k) *fields[k] = static_cast<long>(cv[k]);
+  for (std::size_t k = 0; k < cv.size(); ++k) c.*scheme::lsmps_counter_fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];
   c.outflow_volume = bv[1];
   const scheme::time_step_state ts = scheme::time_step_state_from(tsv);

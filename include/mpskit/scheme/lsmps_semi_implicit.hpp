@@ -345,6 +345,24 @@ struct lsmps_counters {
   double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
 };
 
+/// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
+/// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
+/// the tests walk.
+inline constexpr std::array<long lsmps_counters::*, 33> lsmps_counter_fields{
+    &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
+    &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
+    &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
+    &lsmps_counters::shift_limited, &lsmps_counters::degenerate, &lsmps_counters::negative_clamped,
+    &lsmps_counters::wrong_sign_rows, &lsmps_counters::active_set_rows, &lsmps_counters::active_set_solves,
+    &lsmps_counters::active_set_unfinished, &lsmps_counters::list_builds, &lsmps_counters::reorders,
+    &lsmps_counters::filtered, &lsmps_counters::splits, &lsmps_counters::merges, &lsmps_counters::inflow,
+    &lsmps_counters::outflow, &lsmps_counters::outflow_behind, &lsmps_counters::filter_amplifying,
+    &lsmps_counters::filter_tapered, &lsmps_counters::own_loop_checked, &lsmps_counters::own_loop_dirichlet,
+    &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
+    &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts};
+// A counter added to lsmps_counters without a place in the list above fails here.
+static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 2 * sizeof(double));
+
 /// Particle state of the LSMPS scheme: core fields + pressure + volume (V = L^D, Tanaka eq. 26; copies
 /// have their own diameter, eq. 76, so sizes are per particle even at single resolution).
 template <int D>
@@ -436,15 +454,8 @@ class lsmps_semi_implicit {
     check_particles(s, "the restored state");
     if (!(std::isfinite(t) && t >= 0.0) || !(std::isfinite(dt) && dt >= 0.0))
       fail("lsmps_semi_implicit::restore: time ", t, " s and dt ", dt, " s must be finite and >= 0");
-    const long counts[] = {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.ppe_lagged_retries,
-                           c.pinned_components, c.isolated, c.copies, c.small_diameter_events, c.guarded,
-                           c.shift_limited, c.degenerate, c.negative_clamped, c.wrong_sign_rows, c.active_set_rows,
-                           c.active_set_solves, c.active_set_unfinished, c.list_builds, c.reorders, c.filtered,
-                           c.splits, c.merges, c.inflow, c.outflow, c.outflow_behind, c.filter_amplifying,
-                           c.filter_tapered, c.own_loop_checked, c.own_loop_dirichlet, c.own_loop_one_point,
-                           c.own_loop_solves, c.ppe_fallbacks, c.shift_velocity_clipped, c.ppe_breakdown_restarts};
-    for (long v : counts)
-      if (v < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", v, ")");
+    for (long lsmps_counters::*f : lsmps_counter_fields)
+      if (c.*f < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", c.*f, ")");
     if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
           c.outflow_volume >= 0.0))
       fail("lsmps_semi_implicit::restore: boundary volumes ", c.inflow_volume, ", ", c.outflow_volume,
