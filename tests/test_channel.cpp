@@ -1010,7 +1010,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 33 values, or of 24 to 32 (older files), the missing ones read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 34 values, or of 24 to 33 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1033,7 +1033,7 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 33);
+    REQUIRE(v.size() == 34);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
@@ -1042,10 +1042,11 @@ TEST_SUITE("restart") {
     v[29] = 14;  // own_loop_solves
     v[30] = 15;  // ppe_fallbacks
     v[31] = 16;  // shift_velocity_clipped
-    v[32] = 17;  // ppe_breakdown_restarts, the last value
+    v[32] = 17;  // ppe_breakdown_restarts
+    v[33] = 18;  // collisions, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("33.mpscp", v), b);
+    io::load_simulation(write("34.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);
@@ -1055,6 +1056,7 @@ TEST_SUITE("restart") {
     CHECK(b.counters().ppe_fallbacks == 15);
     CHECK(b.counters().shift_velocity_clipped == 16);
     CHECK(b.counters().ppe_breakdown_restarts == 17);
+    CHECK(b.counters().collisions == 18);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
     md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1074,6 +1076,10 @@ TEST_SUITE("restart") {
     io::load_simulation(write("32.mpscp", head(32)), b32);
     CHECK(b32.counters().shift_velocity_clipped == 16);
     CHECK(b32.counters().ppe_breakdown_restarts == 0);
+    md_sim b33(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("33.mpscp", head(33)), b33);
+    CHECK(b33.counters().ppe_breakdown_restarts == 17);
+    CHECK(b33.counters().collisions == 0);
     md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("25.mpscp", head(25)), b25);
     CHECK(b25.counters().filter_amplifying == 7);
@@ -1087,9 +1093,9 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 33"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 34"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("34.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 34 values, expected 33"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("35.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 35 values, expected 34"), mpskit::error);
   }
 }

@@ -1434,13 +1434,14 @@ TEST_SUITE("multires_hard") {
   // contact) are what keep it so, and without them each case fails (measured there).
   struct hard_outcome {
     double umax_run = 0.0, umax_end = 0.0, rmin = 1e300, cmax = 0.0, Lmin = 1e300, dV = 0.0;
-    long splits = 0, merges = 0, surface_splits = 0, guarded = 0, contact_refusals = 0;
+    long splits = 0, merges = 0, surface_splits = 0, guarded = 0, contact_refusals = 0, collisions = 0;
   };
   // target(x, t): L* as a function of position and time. T_end in √(H/g).
   template <int D = 2, class Target>
   hard_outcome run_hard_tank(const cases::polygon_tank_config& tc, double T_end, const Target& target,
                              double wall_contact = std::numeric_limits<double>::infinity(),
-                             scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient) {
+                             scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient,
+                             void (*configure)(scheme::lsmps_params<D>&) = nullptr) {
     const auto tank = cases::make_polygon_tank<D>(tc);
     scheme::lsmps_state<D> s0(tank.size());
     s0.x() = tank.x;
@@ -1448,6 +1449,7 @@ TEST_SUITE("multires_hard") {
     scheme::lsmps_params<D> p;
     p.resolution.wall_contact = wall_contact;
     p.copy_row = copy_row;
+    if (configure) configure(p);
     double now = 0.0;
     p.resolution.target_diameter = [&](const vec<D>& x) { return target(x, now); };
     simulation<tank_multires<D>> sim(p, std::move(s0), &tank.walls);
@@ -1484,13 +1486,14 @@ TEST_SUITE("multires_hard") {
     o.splits = sim.counters().splits;
     o.merges = sim.counters().merges;
     o.guarded = sim.counters().guarded;
+    o.collisions = sim.counters().collisions;
     o.dV = volume() / V0 - 1.0;
     sim.state().validate();
     std::printf("multires_hard %dD: %ld steps, %ld -> %ld particles, L_min/L = %.3f, splits %ld (%ld of surface particles), "
                 "merges %ld, contact refusals %ld; max |u| / sqrt(gH) over the run %.2e, at the end %.2e; min r_ij/L_ij "
-                "%.3f; max c %.3f; guard %ld; volume change %.1e\n",
+                "%.3f; max c %.3f; guard %ld; collisions %ld; volume change %.1e\n",
                 D, k, static_cast<long>(tank.size()), static_cast<long>(sim.state().n_real()), o.Lmin / tc.L, o.splits,
-                o.surface_splits, o.merges, o.contact_refusals, o.umax_run, o.umax_end, o.rmin, o.cmax, o.guarded, o.dV);
+                o.surface_splits, o.merges, o.contact_refusals, o.umax_run, o.umax_end, o.rmin, o.cmax, o.guarded, o.collisions, o.dV);
     return o;
   }
 
@@ -1565,6 +1568,38 @@ TEST_SUITE("multires_hard") {
       CHECK(o.surface_splits > 0);
       CHECK(o.umax_end <= (ramp > 0.0 ? 1e-2 : 5e-2));  // measured 2.4e-3 (ramped), 1.4e-2 (at once)
     }
+  }
+
+  TEST_CASE("multires_hard: size ratio 5 at the right wall, the floor corner and the free surface, 10 sqrt(H/g)") {
+    // The box of the case above with L* = L/5 within 20 mm of the right wall (ramp to 1.05 L at 80 mm), the ratio
+    // ramped in over 0.5 s; five generations, L_min = L/√32 (ratio 5.7). With the default wall options it fails
+    // (docs/resolution.md "Hard cases": 4.6 √(H/g); with collisions, max |u| 8.3 √(gH) at T ≈ 4 and a blow-up).
+    // With the dam break's most robust wall options (tpocml: two-point copy rows, wall-only shifting, active set
+    // with copies, own-loop guard, cond1 ≤ 1e4, limited shifted velocity) it reached its end but clustered in the
+    // split bursts (min r_ij/L_ij 0.194); the collision stage (lsmps_params::collision, α1 = 0.5, deviation 17)
+    // holds the pairs apart. Measured (2026-12-03, min r_ij/L_ij after every step): max |u| 0.80 √(gH), min
+    // r_ij/L_ij 0.474, max c 1.40, guard 0, 845 splits. Ratio 4 with the same options once reached 6.8 √(gH)
+    // (a single splash at T ≈ 6.3) and ratios 4.5 / 5.5 passed: the bounds hold run by run, not by construction.
+    const cases::polygon_tank_config tc = box_tank(0.2, 0.1, 0.2);
+    const double L = tc.L;
+    const auto o = run_hard_tank(
+        tc, 10.0,
+        [L](const vec<2>& x, double t) {
+          const double Lf = L / (1.0 + 4.0 * std::min(t / 0.5, 1.0));
+          const double f = std::clamp((0.2 - x[0] - 0.02) / 0.06, 0.0, 1.0);
+          return Lf + f * (1.05 * L - Lf);
+        },
+        std::numeric_limits<double>::infinity(), scheme::copy_row_kind::parent_gradient,
+        +[](scheme::lsmps_params<2>& p) {
+          cases::tanaka_wall_variant_named("two_point_wall_only_active_set_own_loop_copies_conditioned_limited",
+                                           "multires_hard")
+              .apply(p);
+          p.collision.alpha1 = 0.5;
+        });
+    check_issue_bounds(o);  // measured 0.80 √(gH), 0.474, 1.40, guard 0
+    CHECK(o.Lmin <= 0.18 * L);  // the ratio was reached: L/5.66
+    CHECK(o.surface_splits > 0);
+    CHECK(o.collisions > 0);  // the stage acted (measured 8871 colliding directed pairs)
   }
 
   TEST_CASE("multires_hard: 3D, splitting at a wall and along the floor edge, 4 sqrt(H/g)") {

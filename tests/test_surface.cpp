@@ -591,6 +591,77 @@ TEST_SUITE("regularize") {
     CHECK(dP.norm() <= 1e-14 * scale);
   }
 
+  TEST_CASE("regularize: sized collisions: contact at alpha1 L_ij, restitution, momentum sum V u for unequal volumes") {
+    const std::uint64_t seed = test_seed() + 12;
+    MESSAGE("seed = " << seed);
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> U(-1.0, 1.0), S(0.2, 1.0);
+    const regularize::sized_collision_params p{0.5, 0.2};
+    int tested = 0;
+    for (int trial = 0; trial < 200; ++trial) {
+      const double L0 = S(rng) * l0, L1 = S(rng) * l0;  // size ratios up to 5
+      const Eigen::VectorXd L = (Eigen::VectorXd(2) << L0, L1).finished();
+      const Eigen::VectorXd V = L.array().square();  // 2D: V = L²
+      points<2> x(2, 2), u(2, 2), du;
+      x.col(0).setZero();
+      x.col(1) << U(rng), U(rng);
+      x.col(1) *= 0.24 * (L0 + L1) / x.col(1).norm() * (0.5 + 0.5 * std::abs(U(rng)));  // |r| ≤ 0.24 (L0 + L1) < α1 L_01
+      u.col(0) << U(rng), U(rng);
+      u.col(1) << U(rng), U(rng);
+      search::neighbour_list<2> nl;
+      nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
+      const vec<2> n = x.col(1).normalized();
+      const double vn0 = (u.col(1) - u.col(0)).dot(n);
+      regularize::sized_collisions(exec::seq{}, x, u, L, V, nl, regularize::every_particle{},
+                                   regularize::every_particle{}, p, du);
+      if (!(vn0 < 0.0)) {  // receding: no change
+        CHECK(du.isZero(0.0));
+        continue;
+      }
+      ++tested;
+      const points<2> u1 = u + du;
+      const vec<2> rel0 = u.col(1) - u.col(0), rel = u1.col(1) - u1.col(0);
+      const vec<2> P0 = V[0] * u.col(0) + V[1] * u.col(1), P = V[0] * u1.col(0) + V[1] * u1.col(1);
+      // Σ V u of the pair: share V_j/(V_i + V_j) makes V_i Δu_i = −V_j Δu_j up to rounding of the two shares.
+      CHECK((P - P0).norm() <= 1e-14 * (V[0] * u.col(0).norm() + V[1] * u.col(1).norm()));
+      CHECK(rel.dot(n) == doctest::Approx(-0.2 * vn0).epsilon(1e-12));  // restitution α2, as for equal masses
+      CHECK((rel - rel.dot(n) * n - (rel0 - vn0 * n)).norm() <= 1e-14 * rel0.norm());  // tangential unchanged
+      // The lighter particle takes the larger change: |Δu_i| V_i = |Δu_j| V_j.
+      CHECK(du.col(0).norm() * V[0] == doctest::Approx(du.col(1).norm() * V[1]).epsilon(1e-12));
+    }
+    CHECK(tested > 50);
+    // The contact distance is α1 (L_i + L_j)/2: an approaching pair just inside collides, just outside does not.
+    const Eigen::VectorXd L = (Eigen::VectorXd(2) << l0, 0.2 * l0).finished(), V = L.array().square();
+    const double contact = 0.5 * 0.5 * 1.2 * l0;
+    for (const double f : {0.999, 1.001}) {
+      points<2> x(2, 2), u(2, 2), du;
+      x << 0.0, f * contact, 0.0, 0.0;
+      u << 1.0, -1.0, 0.0, 0.0;
+      search::neighbour_list<2> nl;
+      nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
+      const regularize::collision_report rep = regularize::sized_collisions(
+          exec::seq{}, x, u, L, V, nl, regularize::every_particle{}, regularize::every_particle{}, p, du);
+      CHECK(rep.pairs == (f < 1.0 ? 2 : 0));
+    }
+    // Against an immovable partner (a wall copy): the movable particle bounces with restitution, the partner keeps
+    // its velocity, whatever the volumes.
+    points<2> x(2, 2), u(2, 2), du;
+    x << 0.0, 0.2 * l0, 0.0, 0.1 * l0;
+    u << 1.0, 0.3, 0.5, 0.0;
+    search::neighbour_list<2> nl;
+    nl.build(exec::seq{}, x, search::uniform_radius{3.1 * l0});
+    const vec<2> n = (x.col(1) - x.col(0)).normalized();
+    const double vn0 = (u.col(1) - u.col(0)).dot(n);
+    REQUIRE(vn0 < 0.0);
+    regularize::sized_collisions(exec::seq{}, x, u, L, V, nl, regularize::every_particle{},
+                                 [](index_t i) { return i == 0; }, p, du);
+    CHECK(du.col(1).isZero(0.0));
+    CHECK((u.col(1) - u.col(0) - du.col(0)).dot(n) == doctest::Approx(-0.2 * vn0).epsilon(1e-13));
+    // Bad numbers are refused.
+    CHECK_THROWS_AS(regularize::sized_collision_params({-0.1, 0.2}).validate(), mpskit::error);
+    CHECK_THROWS_AS(regularize::sized_collision_params({0.5, 1.5}).validate(), mpskit::error);
+  }
+
   TEST_CASE("regularize: shifting is zero on a perfect periodic lattice (symmetry)") {
     block<2> b2(12, 12, 0.0, 0, true);
     b2.build();

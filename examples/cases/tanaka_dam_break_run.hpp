@@ -41,6 +41,7 @@ struct tanaka_dam_break_result {
   long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
   long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
+  long collisions = 0;              ///< colliding pairs of the collision stage (lsmps_params::collision)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -253,6 +254,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.ppe_fallbacks = sim.counters().ppe_fallbacks;
   r.ppe_breakdown_restarts = sim.counters().ppe_breakdown_restarts;
   r.shift_velocity_clipped = sim.counters().shift_velocity_clipped;
+  r.collisions = sim.counters().collisions;
   return r;
 }
 

@@ -47,6 +47,86 @@ struct collision_report {
   double max_dv = 0.0;     ///< max |Δu_i| (m/s)
 };
 
+/// The pair rule of seed 001 eq. 13 for both forms below. For every movable i and participating neighbour j with
+/// |r_ij|² ≤ contact2(i, j) that approaches (r_ij · u_ij < 0):
+///   Δu_i += (1 + α2) share(i, j) (r_ij · u_ij)/|r_ij|² r_ij,
+/// share = 1/α3 of the paper (1/2 between equal masses, 1 against an immovable partner). Every Δu_i is read from
+/// the same u (Jacobi); coincident pairs are skipped and counted. The pair momentum m_i Δu_i + m_j Δu_j is zero
+/// when share(i, j) = m_j/(m_i + m_j) (and the list is symmetric).
+template <Execution E, int D, class Participates, class Movable, class Contact2, class Share>
+collision_report pair_collisions(E e, const points<D>& x, const points<D>& u, const search::neighbour_list<D>& nl,
+                                 const Participates& participates, const Movable& movable, const Contact2& contact2,
+                                 const Share& share, double alpha2, points<D>& du) {
+  const index_t n = x.cols();
+  du.setZero(D, n);
+  std::vector<index_t> hits(static_cast<std::size_t>(n), 0), zero(static_cast<std::size_t>(n), 0);
+  for_each_particle(e, n, [&](index_t i) {
+    if (!movable(i)) return;
+    vec<D> s = vec<D>::Zero();
+    index_t h = 0, z = 0;
+    for (const auto jj : nl.neighbours(i)) {
+      const index_t j = jj;
+      if (!participates(j)) continue;
+      const vec<D> d = nl.displacement(x, i, j);
+      const double r2 = d.squaredNorm();
+      if (r2 > contact2(i, j)) continue;  // eq. 13: |r_ij| ≤ the contact distance
+      if (r2 == 0.0) {
+        ++z;
+        continue;
+      }
+      const double dot = d.dot(u.col(j) - u.col(i));
+      if (!(dot < 0.0)) continue;  // eq. 13: approaching pairs only
+      // (1+α2)/α3 (r_ij·u_ij)/|r_ij| r_ij/|r_ij| = (1+α2) share (r_ij·u_ij)/r² r_ij
+      s += ((1.0 + alpha2) * share(i, j) * (dot / r2)) * d;
+      ++h;
+    }
+    du.col(i) = s;
+    hits[static_cast<std::size_t>(i)] = h;
+    zero[static_cast<std::size_t>(i)] = z;
+  });
+  collision_report rep;
+  const auto add = [](index_t a, index_t b) { return a + b; };
+  rep.pairs = reduce(
+      e, n, index_t{0}, [&](index_t i) { return hits[static_cast<std::size_t>(i)]; }, add);
+  rep.particles = reduce(
+      e, n, index_t{0}, [&](index_t i) { return index_t{hits[static_cast<std::size_t>(i)] > 0}; }, add);
+  rep.coincident = reduce(
+      e, n, index_t{0}, [&](index_t i) { return zero[static_cast<std::size_t>(i)]; }, add);
+  rep.max_dv = reduce(
+      e, n, 0.0, [&](index_t i) { return du.col(i).norm(); }, [](double a, double b) { return std::max(a, b); });
+  return rep;
+}
+
+/// Numbers of the collision stage for particles of different sizes (sized_collisions; the LSMPS scheme's opt-in
+/// stage, lsmps_params::collision, docs/lsmps_scheme.md deviation 17).
+struct sized_collision_params {
+  double alpha1 = 0.0;  ///< contact distance in units of the pair-mean diameter L_ij = (L_i + L_j)/2; 0: off
+  double alpha2 = 0.2;  ///< coefficient of restitution (seed 001's range [0, 0.2])
+  /// Throws mpskit::error listing every bad value.
+  void validate() const {
+    validator v("sized_collision_params");
+    v.in_range("alpha1", alpha1, 0.0, 1.5).in_range("alpha2", alpha2, 0.0, 1.0);
+    v.throw_if_any();
+  }
+};
+
+/// Seed 001 eq. 13 between particles of different sizes (ours): contact when |r_ij| ≤ α1 L_ij with the pair-mean
+/// diameter, share(i, j) = V_j/(V_i + V_j) between movable particles (the pair's momentum Σ V u is kept: the
+/// paper's α3 = 2 for equal volumes) and 1 against an immovable partner (α3 = 1). `L` and `V` hold every
+/// particle's diameter and volume (V is read for movable particles only). Δu into du (D × n), nothing changed.
+template <Execution E, int D, class Diameters, class Volumes, class Participates, class Movable>
+collision_report sized_collisions(E e, const points<D>& x, const points<D>& u, const Diameters& L,
+                                  const Volumes& V, const search::neighbour_list<D>& nl,
+                                  const Participates& participates, const Movable& movable,
+                                  const sized_collision_params& p, points<D>& du) {
+  const auto contact2 = [&](index_t i, index_t j) {
+    const double r = 0.5 * p.alpha1 * (L[i] + L[j]);
+    return r * r;
+  };
+  const auto share = [&](index_t i, index_t j) { return movable(j) ? V[j] / (V[i] + V[j]) : 1.0; };
+  return pair_collisions(e, x, u, nl, participates, movable, contact2, share, p.alpha2, du);
+}
+
 /// Lee et al. (2011) collision model, seed 001 eq. 13.
 class collision final {
  public:
@@ -63,48 +143,11 @@ class collision final {
   collision_report velocity_change(E e, const points<D>& x, const points<D>& u,
                                    const search::neighbour_list<D>& nl, const Participates& participates,
                                    const Movable& movable, points<D>& du) const {
-    const index_t n = x.cols();
     check_sizes(x, u, nl);
     const double rc = p_.alpha1 * p_.l0, rc2 = rc * rc;
-    const double c_pair = (1.0 + p_.alpha2) / 2.0, c_wall = 1.0 + p_.alpha2;  // (1 + α2)/α3
-    du.setZero(D, n);
-    std::vector<index_t> hits(static_cast<std::size_t>(n), 0), zero(static_cast<std::size_t>(n), 0);
-    for_each_particle(e, n, [&](index_t i) {
-      if (!movable(i)) return;
-      vec<D> s = vec<D>::Zero();
-      index_t h = 0, z = 0;
-      for (const auto jj : nl.neighbours(i)) {
-        const index_t j = jj;
-        if (!participates(j)) continue;
-        const vec<D> d = nl.displacement(x, i, j);
-        const double r2 = d.squaredNorm();
-        if (r2 > rc2) continue;  // eq. 13: |r_ij| ≤ α1 l0
-        if (r2 == 0.0) {
-          ++z;
-          continue;
-        }
-        const double dot = d.dot(u.col(j) - u.col(i));
-        if (!(dot < 0.0)) continue;  // eq. 13: approaching pairs only
-        // (1+α2)/α3 (r_ij·u_ij)/|r_ij| r_ij/|r_ij| = (1+α2)/α3 (r_ij·u_ij)/r² r_ij
-        s += ((movable(j) ? c_pair : c_wall) * (dot / r2)) * d;
-        ++h;
-      }
-      du.col(i) = s;
-      hits[static_cast<std::size_t>(i)] = h;
-      zero[static_cast<std::size_t>(i)] = z;
-    });
-    collision_report rep;
-    const auto add = [](index_t a, index_t b) { return a + b; };
-    rep.pairs = reduce(
-        e, n, index_t{0}, [&](index_t i) { return hits[static_cast<std::size_t>(i)]; }, add);
-    rep.particles = reduce(
-        e, n, index_t{0}, [&](index_t i) { return index_t{hits[static_cast<std::size_t>(i)] > 0}; }, add);
-    rep.coincident = reduce(
-        e, n, index_t{0}, [&](index_t i) { return zero[static_cast<std::size_t>(i)]; }, add);
-    rep.max_dv = reduce(
-        e, n, 0.0, [&](index_t i) { return du.col(i).norm(); },
-        [](double a, double b) { return std::max(a, b); });
-    return rep;
+    return pair_collisions(
+        e, x, u, nl, participates, movable, [rc2](index_t, index_t) { return rc2; },
+        [&movable](index_t, index_t j) { return movable(j) ? 0.5 : 1.0; }, p_.alpha2, du);  // 1/α3
   }
 
   /// u ← u + Δu, x ← x + Δu dt for movable particles (seed 001 eqs. 23–24); dt = 0 leaves x alone.

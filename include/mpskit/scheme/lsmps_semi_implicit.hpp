@@ -32,7 +32,9 @@
 ///     Parts with no Dirichlet row (periodic boxes) are pinned at their lowest-id particle after making the
 ///     right-hand side compatible with the left null vector, and counted. With active_set_solves > 0 fluid
 ///     particles solved at p < 0 become p = 0 rows and the PPE is solved again (ours, opt-in: deviation 13).
-///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16).
+///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16). Then, when
+///     asked, the one-sided-band velocity filter and pair collisions (deviations, lsmps_params::boundary_filter and
+///     lsmps_params::collision).
 /// 10. Shifting (eqs. 93–100) with δu = ∇u δx (eq. 91), if the scene names it.
 /// 11. Wall-crossing guard (a documented deviation), periodic wrap, NaN/inf check.
 /// 12. If Scene::resolution is split_merge: splitting/merging on this step's list, normals and flags, one
@@ -70,6 +72,7 @@
 #include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/ppe/solve.hpp"
 #include "mpskit/regularize/boundary_filter.hpp"
+#include "mpskit/regularize/collision.hpp"
 #include "mpskit/regularize/tanaka_shift.hpp"
 #include "mpskit/scheme/detail/component_fits.hpp"
 #include "mpskit/scheme/detail/resolution_stage.hpp"
@@ -257,6 +260,11 @@ struct lsmps_params {
   /// of particles leaving a wall were solved at −1.4·10⁷ Pa in the dam break (3.8 mm), docs/lsmps_scheme.md.
   bool active_set_copies = false;
   own_loop_guard_params own_loop{};   ///< the own-loop guard (ours, opt-in; see the struct)
+  /// Pair collisions after the correction (ours, opt-in; docs/lsmps_scheme.md deviation 17): seed 001 eq. 13 (Lee
+  /// et al. 2011) between fluid particles closer than α1 L_ij that approach, and against their wall copies (at the
+  /// wall velocity, immovable), momentum-conserving for unequal volumes (regularize::sized_collisions). alpha1 = 0:
+  /// off, Tanaka's scheme. Counted (lsmps_counters::collisions).
+  regularize::sized_collision_params collision{};
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
   search::domain<D> domain{};           ///< periodic axes
@@ -298,6 +306,7 @@ struct lsmps_params {
     shift.validate();
     boundary_filter.validate();
     own_loop.validate();
+    collision.validate();
     time.validate();
     solver.validate();
     domain.validate();
@@ -319,6 +328,7 @@ struct lsmps_counters {
   long guarded = 0;                ///< wall-crossing guard activations (a deviation: should stay 0)
   long shift_limited = 0;          ///< shifts limited to α_S L (eq. 100)
   long shift_velocity_clipped = 0; ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
+  long collisions = 0;             ///< colliding directed pairs of the collision stage (lsmps_params::collision)
   long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
   long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
@@ -348,7 +358,7 @@ struct lsmps_counters {
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
 /// the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 33> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 34> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -359,7 +369,8 @@ inline constexpr std::array<long lsmps_counters::*, 33> lsmps_counter_fields{
     &lsmps_counters::outflow, &lsmps_counters::outflow_behind, &lsmps_counters::filter_amplifying,
     &lsmps_counters::filter_tapered, &lsmps_counters::own_loop_checked, &lsmps_counters::own_loop_dirichlet,
     &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
-    &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts};
+    &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
+    &lsmps_counters::collisions};
 // A counter added to lsmps_counters without a place in the list above fails here.
 static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 2 * sizeof(double));
 
@@ -667,6 +678,8 @@ class lsmps_semi_implicit {
       c_.filter_amplifying += static_cast<long>(fr.amplifying);
       c_.filter_tapered += static_cast<long>(fr.tapered);
     }
+    // 9c. Pair collisions (ours, opt-in: lsmps_params::collision).
+    if (p_.collision.alpha1 > 0.0) collide(n);
     // 10. Shifting (δx from this step's lists at x^k; δu = ∇u δx, eq. 91).
     if constexpr (has_shift) shift_particles();
     for_each_particle(exec::par{}, n, [&](index_t i) { s_.x().col(i) += dt * s_.u().col(i) + dx_shift(i); });
@@ -926,6 +939,19 @@ class lsmps_semi_implicit {
     c_.outflow_volume += flux.outflow_volume;
     last_flux_ = flux;
     if constexpr (has_resolution) sizes_from_volumes();
+  }
+
+  /// 9c. Seed 001 eq. 13 between the participating fluid particles and against their copies (wall velocity,
+  /// immovable) on this step's list at x^k (the velocities are the corrected, filtered ones; the copies' u is the
+  /// wall's). Pressure-boundary particles take no part. Jacobi: every Δu from the same u.
+  void collide(index_t n) {
+    const auto movable = [this, n](index_t i) { return i < n && !excluded_[static_cast<std::size_t>(i)]; };
+    const auto partner = [this](index_t j) { return j < nc_ && !excluded_[static_cast<std::size_t>(j)]; };
+    const regularize::collision_report rep =
+        regularize::sized_collisions(exec::par{}, s_.x(), s_.u(), L_, s_.template get<field::volume>(), nl_, partner,
+                                     movable, p_.collision, collision_du_);
+    s_.u().leftCols(n) += collision_du_.leftCols(n);
+    c_.collisions += static_cast<long>(rep.pairs);
   }
 
   /// Tanaka's shifting (eqs. 93–100) from this step's list at x^k; δu = ∇u δx (eq. 91) with the corrected
@@ -1732,6 +1758,7 @@ class lsmps_semi_implicit {
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_, u_new_;
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
+  points<D> collision_du_;                // Δu of the collision stage (9c)
   std::vector<std::uint8_t> active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
   // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
   std::vector<std::uint8_t> own_loop_dirichlet_, own_loop_one_point_;
