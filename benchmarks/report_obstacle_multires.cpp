@@ -123,15 +123,15 @@ int main(int argc, char** argv) try {
     if (r.series == "single") curve.push_back({r.wall_median, bench::reporter::value(r, "front_rms")});
   std::ofstream f(dir / "obstacle_multires_speed_up.csv");
   f << "# reference: single resolution " << ref_mm << " mm to T = " << T_end << ", " << ref.wall_seconds << " s\n";
-  f << "multires,multires_wall_median_s,multires_front_rms,single_runs,kind,single_seconds,speed_up\n";
+  f << "multires,multires_wall_median_s,multires_front_rms,single_runs,kind,single_seconds,speed_up,dominated\n";
   for (const bench::run_record& m : rep.records()) {
     if (m.series != "multi" || curve.empty()) continue;
     const double e = bench::reporter::value(m, "front_rms");
     const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, e});
     std::cout << m.name << ": single resolution needs " << s.bound_prefix() << s.single_seconds
-              << " s for its front error; speed-up " << s.kind_name() << " " << s.speed_up << "\n";
+              << " s for its front error; speed-up " << s.kind_name() << " " << s.speed_up << s.dominated_note() << "\n";
     f << m.name << "," << m.wall_median << "," << e << "," << curve.size() << "," << s.kind_name() << "," << s.single_seconds
-      << "," << s.speed_up << "\n";
+      << "," << s.speed_up << "," << s.dominated << "\n";
   }
   if (rep.write_plot(dir / "obstacle_multires_speed_error.png", "front_rms", std::cout, true))
     std::cout << "wrote " << (dir / "obstacle_multires_speed_error.png").string() << "\n";

@@ -159,7 +159,7 @@ int main(int argc, char** argv) try {
     // interpolation, a bound outside the measured range).
     const std::filesystem::path su = std::filesystem::path(out) / (stem + "_speed_up.csv");
     std::ofstream f(su);
-    f << "multires,multires_wall_median_s,multires_error_series,single_runs,kind,single_seconds,speed_up\n";
+    f << "multires,multires_wall_median_s,multires_error_series,single_runs,kind,single_seconds,speed_up,dominated\n";
     for (const bench::run_record& m : rep.records()) {
       const auto at = m.series.rfind(" 2:1");
       if (at == std::string::npos) continue;
@@ -170,9 +170,9 @@ int main(int argc, char** argv) try {
       if (curve.empty()) continue;
       const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, bench::reporter::value(m, "series")});
       std::cout << m.name << ": single resolution needs " << s.bound_prefix() << s.single_seconds
-                << " s for its error; speed-up " << s.kind_name() << " " << s.speed_up << "\n";
+                << " s for its error; speed-up " << s.kind_name() << " " << s.speed_up << s.dominated_note() << "\n";
       f << m.name << "," << m.wall_median << "," << bench::reporter::value(m, "series") << "," << curve.size() << ","
-        << s.kind_name() << "," << s.single_seconds << "," << s.speed_up << "\n";
+        << s.kind_name() << "," << s.single_seconds << "," << s.speed_up << "," << s.dominated << "\n";
     }
     std::cout << "wrote " << su.string() << "\n";
   }

@@ -259,11 +259,23 @@ TEST_SUITE("split_merge") {
     CHECK(std::string(worse.bound_prefix()) == "<= ");
     CHECK(std::string(better.kind_name()) == "at_least");
     CHECK(std::string(better.bound_prefix()) == ">= ");
-    // An error that grows with cost (the dam break's front, docs/validation.md): the cheapest crossing.
+    CHECK(r.dominated == 0);
+    // A curve that rises somewhere (the obstacle study's 5 mm outlier, docs/validation.md): the 4 s run is no better
+    // than the 1 s run, so it is dropped and the lower envelope (1 s, 0.05), (16 s, 0.04) is read. An error of
+    // 0.055 is then above every kept run: single resolution needs at most 1 s (the whole curve's first crossing,
+    // on the rising 1–4 s segment, said 2.3 s).
     const std::vector<cost_point> rising{{1.0, 0.05}, {4.0, 0.06}, {16.0, 0.04}};
     const auto x = bench::speed_up(rising, {2.0, 0.055});
-    CHECK(x.how == kind::interpolated);
-    CHECK(x.single_seconds == doctest::Approx(std::exp(std::log(4.0) * std::log(1.1) / std::log(1.2))).epsilon(1e-12));
+    CHECK(x.how == kind::at_most);
+    CHECK(x.dominated == 1);
+    CHECK(x.single_seconds == 1.0);
+    CHECK(x.speed_up == 0.5);
+    // 0.045 lies on the envelope's segment from 1 s to 16 s (not on the 4–16 s segment of the whole curve).
+    const auto y = bench::speed_up(rising, {2.0, 0.045});
+    CHECK(y.how == kind::interpolated);
+    CHECK(y.single_seconds == doctest::Approx(std::exp(std::log(16.0) * std::log(0.9) / std::log(0.8))).epsilon(1e-12));
+    // An equal error at a higher cost is dominated too.
+    CHECK(bench::speed_up({{1.0, 0.05}, {2.0, 0.05}, {4.0, 0.02}}, {1.0, 0.03}).dominated == 1);
     CHECK_THROWS_WITH_AS(bench::speed_up({}, {1.0, 0.1}), doctest::Contains("no single-resolution run"), mpskit::error);
     CHECK_THROWS_WITH_AS(bench::speed_up(curve, {0.0, 0.1}), doctest::Contains("multi-resolution run"), mpskit::error);
     CHECK_THROWS_WITH_AS(bench::speed_up({{1.0, std::nan("")}}, {1.0, 0.1}), doctest::Contains("single-resolution run"),
