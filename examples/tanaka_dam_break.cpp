@@ -8,7 +8,8 @@
 // and prints a summary: the front against the band, the lowest fluid pressure against −ρgH, the closest pair,
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
-// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
+// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--obstacle] [--full] [--trace U]
+//                         [--out DIR] [--data DIR]
 //   --L      particle diameter in mm (default 5: the spacing at which the default wall options get through
 //            the far-wall impact; docs/lsmps_scheme.md, deviation 13)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
@@ -17,12 +18,15 @@
 //            two_point_wall_only_active_set_own_loop_copies_conditioned (through the impact at all 31 spacings
 //            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | ..._conditioned_limited (2 mm too) |
 //            neumann_points_wall_only_active_set
+//   --collision  lsmps_params::collision.alpha1: the opt-in collision stage's contact distance in L_ij (default 0:
+//            off; docs/lsmps_scheme.md deviation 17)
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with
 //            two_point_wall_only_active_set_own_loop_copies_conditioned_limited 2 mm gets through the impact,
 //            1.5 mm fails in it (T = 2.82) and 1 mm before it (T = 2.58, PPE not converging after 46 guard
-//            activations; docs/lsmps_scheme.md "The 1.5 mm breakdown").
+//            activations; docs/lsmps_scheme.md "The 1.5 mm breakdown"); with --collision 0.5 as well 1.5 mm reaches
+//            T = 3.2 (with 102 guard activations).
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
 //            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
@@ -49,12 +53,13 @@ namespace fs = std::filesystem;
 using namespace mpskit;
 
 int main(int argc, char** argv) {
-  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0;
+  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = 0.0;
   bool trace = false;
   bool obstacle = false;
   std::string walls_name = "two_point_wall_only_active_set", data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--obstacle] [--full] [--trace U] "
+                         "[--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -65,6 +70,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--L") && has_value) L_mm = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--T") && has_value) T_end = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
+    else if (!std::strcmp(argv[a], "--collision") && has_value) collision = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
     else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
@@ -122,6 +128,7 @@ int main(int argc, char** argv) {
     };
     scheme::lsmps_params<2> p;
     walls.apply(p);
+    p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
                 "walls '%s', to T = %g\n",
                 obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(), T_end);
@@ -184,8 +191,9 @@ int main(int argc, char** argv) {
                 r.p_min, r.p_min / r.rho_g_h, r.p_min_copies);
     std::printf("  closest fluid pair %.3f L (at T = %.2f); wall-crossing guard activations %ld; active-set rows %ld\n",
                 r.min_pair_ratio, r.T_min_pair, r.guarded, r.active_set_rows);
-    std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld (docs/run.md); shifted velocities clipped %ld\n",
-                r.ppe_breakdown_restarts, r.shift_velocity_clipped);
+    std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld (docs/run.md); shifted velocities clipped %ld; "
+                "colliding pairs %ld\n",
+                r.ppe_breakdown_restarts, r.shift_velocity_clipped, r.collisions);
     if (std::isfinite(m.t_arrival))
       std::printf("  probe (%.0f, %.0f) mm wet at T = %.3f; over the next 10 ms%s: impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered "
                   "peak %.0f Pa, every-100-steps peak %.0f Pa (Tanaka: %.0f Pa at 1 mm, every 100 steps)\n",
