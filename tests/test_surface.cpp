@@ -657,9 +657,16 @@ TEST_SUITE("regularize") {
                                  [](index_t i) { return i == 0; }, p, du);
     CHECK(du.col(1).isZero(0.0));
     CHECK((u.col(1) - u.col(0) - du.col(0)).dot(n) == doctest::Approx(-0.2 * vn0).epsilon(1e-13));
-    // Bad numbers are refused.
+    // Bad numbers and sizes that do not match x are refused.
     CHECK_THROWS_AS(regularize::sized_collision_params({-0.1, 0.2}).validate(), mpskit::error);
     CHECK_THROWS_AS(regularize::sized_collision_params({0.5, 1.5}).validate(), mpskit::error);
+    CHECK_THROWS_WITH_AS(regularize::sized_collisions(exec::seq{}, x, u, L, Eigen::VectorXd(V.head(1)), nl,
+                                                      regularize::every_particle{}, regularize::every_particle{}, p, du),
+                         doctest::Contains("V 1 values"), mpskit::error);
+    CHECK_THROWS_AS(regularize::sized_collisions(exec::seq{}, x, u, L, V, nl, regularize::every_particle{},
+                                                 regularize::every_particle{}, regularize::sized_collision_params{2.0, 0.2},
+                                                 du),
+                    mpskit::error);
   }
 
   TEST_CASE("regularize: shifting is zero on a perfect periodic lattice (symmetry)") {

@@ -113,12 +113,18 @@ struct sized_collision_params {
 /// Seed 001 eq. 13 between particles of different sizes (ours): contact when |r_ij| ≤ α1 L_ij with the pair-mean
 /// diameter, share(i, j) = V_j/(V_i + V_j) between movable particles (the pair's momentum Σ V u is kept: the
 /// paper's α3 = 2 for equal volumes) and 1 against an immovable partner (α3 = 1). `L` and `V` hold every
-/// particle's diameter and volume (V is read for movable particles only). Δu into du (D × n), nothing changed.
+/// particle's diameter and volume (V is read for movable particles only; volumes > 0). Δu into du (D × n), nothing
+/// changed. Throws mpskit::error on bad params or sizes that do not match x.
 template <Execution E, int D, class Diameters, class Volumes, class Participates, class Movable>
 collision_report sized_collisions(E e, const points<D>& x, const points<D>& u, const Diameters& L,
                                   const Volumes& V, const search::neighbour_list<D>& nl,
                                   const Participates& participates, const Movable& movable,
                                   const sized_collision_params& p, points<D>& du) {
+  p.validate();
+  const index_t n = x.cols();
+  if (u.cols() != n || nl.rows() != n || static_cast<index_t>(L.size()) != n || static_cast<index_t>(V.size()) != n)
+    fail("sized_collisions: x has ", n, " columns but u ", u.cols(), ", the neighbour list ", nl.rows(), " rows, L ",
+         L.size(), " and V ", V.size(), " values (one per particle, the list built on x)");
   const auto contact2 = [&](index_t i, index_t j) {
     const double r = 0.5 * p.alpha1 * (L[i] + L[j]);
     return r * r;

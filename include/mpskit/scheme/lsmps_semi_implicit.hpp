@@ -32,9 +32,9 @@
 ///     Parts with no Dirichlet row (periodic boxes) are pinned at their lowest-id particle after making the
 ///     right-hand side compatible with the left null vector, and counted. With active_set_solves > 0 fluid
 ///     particles solved at p < 0 become p = 0 rows and the PPE is solved again (ours, opt-in: deviation 13).
-///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16). Then, when
-///     asked, the one-sided-band velocity filter and pair collisions (deviations, lsmps_params::boundary_filter and
-///     lsmps_params::collision).
+///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16). Then the
+///     one-sided-band velocity filter (a deviation, on by default: lsmps_params::boundary_filter) and, when asked,
+///     pair collisions (a deviation, off by default: lsmps_params::collision).
 /// 10. Shifting (eqs. 93–100) with δu = ∇u δx (eq. 91), if the scene names it.
 /// 11. Wall-crossing guard (a documented deviation), periodic wrap, NaN/inf check.
 /// 12. If Scene::resolution is split_merge: splitting/merging on this step's list, normals and flags, one
