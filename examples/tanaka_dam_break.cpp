@@ -26,7 +26,8 @@
 //            two_point_wall_only_active_set_own_loop_copies_conditioned_limited 2 mm gets through the impact,
 //            1.5 mm fails in it (T = 2.82) and 1 mm before it (T = 2.58, PPE not converging after 46 guard
 //            activations; docs/lsmps_scheme.md "The 1.5 mm breakdown"); with --collision 0.5 as well 1.5 mm reaches
-//            T = 3.2 (with 102 guard activations).
+//            T = 3.2 (with 102 guard activations), and so does 1 mm (146 guard activations, the front in the band at
+//            28 of 65 samples, the probe noisy; 66 min on two threads; docs/lsmps_scheme.md).
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
 //            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
