@@ -71,7 +71,15 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--L") && has_value) L_mm = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--T") && has_value) T_end = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
-    else if (!std::strcmp(argv[a], "--collision") && has_value) collision = std::atof(argv[++a]);
+    else if (!std::strcmp(argv[a], "--collision") && has_value) {
+      char* end = nullptr;
+      const char* v = argv[++a];
+      collision = std::strtod(v, &end);
+      if (end == v || *end != '\0') {  // not a number: refused, not read as 0 (which would switch the stage off)
+        std::fprintf(stderr, "tanaka_dam_break: --collision '%s': not a number\n", v);
+        return usage();
+      }
+    }
     else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = std::atof(argv[++a]);
     else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
     else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
