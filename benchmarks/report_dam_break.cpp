@@ -213,7 +213,7 @@ int main(int argc, char** argv) try {
     const auto parse_levels = [&](std::vector<int>& out, const char* what) {
       out.clear();
       for (const std::string& s : split(next())) {
-        const int N = std::stoi(s);
+        const int N = bench::parse_integer(a.c_str(), s, 4);
         if (N < 4 || N > 400) fail("report_dam_break: ", a, " entry ", N, " outside [4, 400] (", what, ")");
         out.push_back(N);
       }
@@ -223,16 +223,16 @@ int main(int argc, char** argv) try {
     } else if (a == "--solvers") {
       solvers = split(next());
     } else if (a == "--repetitions") {
-      reps = std::stoi(next());
+      reps = bench::parse_integer("--repetitions", next(), 1);
     } else if (a == "--T-end") {
-      T_end = std::stod(next());
+      T_end = bench::parse_number("--T-end", next(), 0.0);
       if (!(T_end > 0.0 && T_end <= 10.0)) fail("report_dam_break: --T-end ", T_end, " outside (0, 10]");
     } else if (a == "--lsmps-levels") {
       parse_levels(lsmps_levels, "L = h0/N");
     } else if (a == "--lsmps-orders") {
       lsmps_orders.clear();
       for (const std::string& s : split(next())) {
-        const int q = std::stoi(s);
+        const int q = bench::parse_integer("--lsmps-orders", s, 2);
         if (q != 2 && q != 3) fail("report_dam_break: --lsmps-orders entry ", q, " (accepted: 2, 3)");
         lsmps_orders.push_back(q);
       }
@@ -240,7 +240,7 @@ int main(int argc, char** argv) try {
       lsmps_walls.clear();
       for (const std::string& w : split(next())) lsmps_walls.push_back(&cases::tanaka_wall_variant_named(w, "report_dam_break --lsmps-walls"));
     } else if (a == "--lsmps-T-end") {
-      lsmps_T_end = std::stod(next());
+      lsmps_T_end = bench::parse_number("--lsmps-T-end", next(), 0.0);
       if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
     } else if (a == "--out") {
       out = next();

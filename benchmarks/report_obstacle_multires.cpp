@@ -37,10 +37,10 @@ std::vector<std::string> split(const std::string& s) {
   return v;
 }
 
+// A number > 0 (bench::parse_number: the whole text, finite).
 double number(const std::string& s, const char* what) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (end == s.c_str() || *end != '\0' || !(v > 0.0)) fail("report_obstacle_multires: ", what, " '", s, "': need a number > 0");
+  const double v = bench::parse_number(what, s, 0.0);
+  if (!(v > 0.0)) fail("report_obstacle_multires: ", what, " '", s, "': need a number > 0");
   return v;
 }
 
@@ -69,7 +69,7 @@ int main(int argc, char** argv) try {
     const std::string k = argv[a], v = argv[a + 1];
     if (k == "--reference") ref_mm = number(v, "--reference");
     else if (k == "--T") T_end = number(v, "--T");
-    else if (k == "--repetitions") reps = static_cast<int>(number(v, "--repetitions"));
+    else if (k == "--repetitions") reps = bench::parse_integer("--repetitions", v, 1);
     else if (k == "--out") out = v;
     else if (k == "--walls") walls = v;  // checked by obstacle_params below, before any run
     else if (k == "--single") {

@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "cases/cli.hpp"
 #include "mpskit/core/dimension.hpp"
 #include "mpskit/core/error.hpp"
 
@@ -68,44 +69,13 @@ inline double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/// A number >= lo from a command-line value; mpskit::error naming `what` otherwise (no silent atof zero).
-inline double parse_number(const char* what, const std::string& s, double lo) {
-  char* end = nullptr;
-  const double x = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || !(x >= lo) || !std::isfinite(x)) {
-    char bound[32];
-    std::snprintf(bound, sizeof bound, "%g", lo);
-    fail(what, " '", s, "': must be a finite number >= ", bound);
-  }
-  return x;
-}
-
-/// A comma-separated list of numbers >= lo ("3,3.5,4"); mpskit::error naming `what` and the bad entry otherwise.
-inline std::vector<double> parse_numbers(const char* what, const std::string& s, double lo) {
-  std::vector<double> v;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');) v.push_back(parse_number(what, item, lo));
-  if (v.empty()) fail(what, ": an empty list");
-  return v;
-}
-
-/// x as an int; mpskit::error naming `what` when x is not a whole number.
-inline int whole_number(const char* what, double x) {
-  if (x != std::floor(x) || std::abs(x) > 1e9) fail(what, ": ", x, " is not a whole number");
-  return static_cast<int>(x);
-}
-
-/// A whole number >= lo; mpskit::error naming `what` otherwise.
-inline int parse_integer(const char* what, const std::string& s, int lo) {
-  return whole_number(what, parse_number(what, s, lo));
-}
-
-/// A comma-separated list of whole numbers >= lo ("25,50"); mpskit::error naming `what` and the bad entry otherwise.
-inline std::vector<int> parse_integers(const char* what, const std::string& s, int lo) {
-  std::vector<int> v;
-  for (const double x : parse_numbers(what, s, lo)) v.push_back(whole_number(what, x));
-  return v;
-}
+// Command-line numbers (parse_number, parse_numbers, whole_number, parse_integer, parse_integers): shared with the
+// examples, examples/cases/cli.hpp.
+using cases::parse_integer;
+using cases::parse_integers;
+using cases::parse_number;
+using cases::parse_numbers;
+using cases::whole_number;
 
 /// Options of the own-main timing benchmarks: --repetitions R (≥ 1) and --t-end T (s, > 0), plus any `extra`
 /// options taking one value (their values land in `extra_values`, by name). Returns false after printing the
@@ -121,11 +91,20 @@ struct run_options {
         std::fprintf(stderr, "%s: unknown or incomplete option '%s'\n", program, arg.c_str());
         return false;
       }
-      if (arg == "--repetitions") {
-        repetitions = std::atoi(argv[++a]);
-      } else if (arg == "--t-end") {
-        t_end = std::atof(argv[++a]);
-      } else if (arg.rfind("--", 0) == 0 && std::find(extra.begin(), extra.end(), arg.substr(2)) != extra.end()) {
+      try {
+        if (arg == "--repetitions") {
+          repetitions = parse_integer("--repetitions", argv[++a], 1);
+          continue;
+        }
+        if (arg == "--t-end") {
+          t_end = parse_number("--t-end", argv[++a], 0.0);
+          continue;
+        }
+      } catch (const mpskit::error& e) {
+        std::fprintf(stderr, "%s: %s\n", program, e.what());
+        return false;
+      }
+      if (arg.rfind("--", 0) == 0 && std::find(extra.begin(), extra.end(), arg.substr(2)) != extra.end()) {
         extra_values[arg.substr(2)] = argv[++a];
       } else {
         std::fprintf(stderr, "%s: unknown or incomplete option '%s'\n", program, arg.c_str());

@@ -10,10 +10,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "cases/cli.hpp"
 #include "cases/dam_break.hpp"
 
 using namespace mpskit;
@@ -53,15 +53,20 @@ sample run(double target_particles, double compressibility, int warmup, int step
 int main(int argc, char** argv) {
   std::vector<double> sizes{1e4, 1e5};
   int steps = 20, reps = 3;
-  for (int a = 1; a < argc; ++a) {
-    if (!std::strcmp(argv[a], "--sizes") && a + 1 < argc) {
-      sizes.clear();
-      std::stringstream ss(argv[++a]);
-      std::string tok;
-      while (std::getline(ss, tok, ',')) sizes.push_back(std::stod(tok));
-    } else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc) steps = std::stoi(argv[++a]);
-    else if (!std::strcmp(argv[a], "--reps") && a + 1 < argc) reps = std::stoi(argv[++a]);
-    else { std::fprintf(stderr, "usage: %s [--sizes 1e4,1e5,1e6] [--steps N] [--reps R]\n", argv[0]); return 2; }
+  const auto usage = [&]() {
+    std::fprintf(stderr, "usage: %s [--sizes 1e4,1e5,1e6] [--steps N] [--reps R]\n", argv[0]);
+    return 2;
+  };
+  try {
+    for (int a = 1; a < argc; ++a) {
+      if (!std::strcmp(argv[a], "--sizes") && a + 1 < argc) sizes = mpskit::cases::parse_numbers("--sizes", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc) steps = mpskit::cases::parse_integer("--steps", argv[++a], 1);
+      else if (!std::strcmp(argv[a], "--reps") && a + 1 < argc) reps = mpskit::cases::parse_integer("--reps", argv[++a], 1);
+      else return usage();
+    }
+  } catch (const mpskit::error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return usage();
   }
   std::printf("dam break throughput, %s, %d thread(s); defaults<2> (quadratic kernel, TCPI source, NPCD, collision, CG-IC)\n",
               MPSKIT_BENCH_FLAGS, max_threads());

@@ -37,6 +37,7 @@
 #include <cstring>
 #include <exception>
 
+#include "cases/cli.hpp"
 #include "cases/duct.hpp"
 #include "cases/multi_diameter_channel.hpp"
 #include "cases/pipe.hpp"
@@ -55,9 +56,12 @@ struct long_channel_multires_scene : long_channel_scene {
 
 // Reads a positive number from s into v; on failure prints "channel <mode>: <what> must be ..." and returns false.
 bool positive_number(const char* mode, const char* what, const char* s, double& v) {
-  char* end = nullptr;
-  v = std::strtod(s, &end);
-  if (end == s || *end != '\0' || !(v > 0.0)) {
+  try {
+    v = mpskit::cases::parse_number(what, s);  // the whole text, finite
+  } catch (const mpskit::error&) {
+    v = 0.0;
+  }
+  if (!(v > 0.0)) {
     std::fprintf(stderr, "channel %s: %s must be a positive number (got '%s')\n", mode, what, s);
     return false;
   }
@@ -152,7 +156,7 @@ int run(int argc, char** argv) {
   if (argc > 1 && !std::strcmp(argv[1], "--pipe")) {
     mpskit::cases::pipe_config pc;
     pc.probe_times = {0.05};
-    if (argc > 2) pc.t_end = std::atof(argv[2]);
+    if (argc > 2) pc.t_end = mpskit::cases::parse_number("channel --pipe: t_end", argv[2], 1e-12);
     const auto r = mpskit::cases::run_pipe(pc);
     std::printf("pipe R = %.1f mm, %d particles per radius (%lld particles, %ld steps, %.1f s wall):\n", pc.R * 1e3,
                 pc.per_radius, static_cast<long long>(r.particles), r.steps, r.wall_seconds);
@@ -163,8 +167,8 @@ int run(int argc, char** argv) {
   if (argc > 1 && !std::strcmp(argv[1], "--duct")) {
     for (bool pressure : {true, false}) {
       mpskit::cases::duct_config dc;
-      if (argc > 2) dc.t_end = std::atof(argv[2]);
-      if (argc > 3) dc.L = std::atof(argv[3]);
+      if (argc > 2) dc.t_end = mpskit::cases::parse_number("channel --duct: t_end", argv[2], 1e-12);
+      if (argc > 3) dc.L = mpskit::cases::parse_number("channel --duct: L", argv[3], 1e-12);
       const auto r = mpskit::cases::run_duct(dc, pressure);
       std::printf("3D duct %s, L = %.3f mm, t = %.3f s (%lld -> %lld particles, %ld steps, %.1f s wall): max cell |u - series| "
                   "/ u_c = %.4f (RMS %.4f), u_c = %.5f m/s; inflow %ld, outflow %ld\n",
@@ -176,11 +180,7 @@ int run(int argc, char** argv) {
   }
   if (argc > 1 && !std::strcmp(argv[1], "--duct-multires")) {
     mpskit::cases::duct_config dc;
-    if (argc > 2) dc.t_end = std::atof(argv[2]);
-    if (!(dc.t_end > 0.0)) {
-      std::fprintf(stderr, "channel --duct-multires: t_end must be a positive number (got '%s')\n", argv[2]);
-      return 1;
-    }
+    if (argc > 2) dc.t_end = mpskit::cases::parse_number("channel --duct-multires: t_end", argv[2], 1e-12);
     mpskit::cases::refine_duct_walls(dc);
     const auto r = mpskit::cases::run_duct_impl<mpskit::cases::duct_pressure_multires_scene>(dc);
     std::printf("3D duct through pressure faces, split near the walls, t = %.3f s (%lld -> %lld particles, L in [%.3f, "
@@ -305,11 +305,11 @@ int run(int argc, char** argv) {
     } else if (!std::strcmp(argv[a], "--periodic-only")) {
       periodic_only = true;
     } else if (positional == 0) {
-      c.L = std::atof(argv[a]);
+      c.L = mpskit::cases::parse_number("channel: L", argv[a], 1e-12);
       c.dt = 2.5e-4 * (c.L / 0.5e-3) * (c.L / 0.5e-3);  // the viscous limit 0.1 L²/ν scales with L²
       ++positional;
     } else {
-      c.t_end = std::atof(argv[a]);
+      c.t_end = mpskit::cases::parse_number("channel: t_end", argv[a], 1e-12);
     }
   }
   const mpskit::cases::poiseuille_exact ex{c.G, c.H, c.mu, c.rho};

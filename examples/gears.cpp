@@ -21,6 +21,7 @@
 #include <iostream>
 #include <string>
 
+#include "cases/cli.hpp"
 #include "cases/gears.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
@@ -47,9 +48,13 @@ int run(int argc, char** argv) {
   bool geometry_only = false, jacobi = false, ilut = false;
   const auto number = [&](int& a, double& v, bool zero_ok = false) {
     if (a + 1 >= argc) return false;
-    char* end = nullptr;
-    v = std::strtod(argv[++a], &end);
-    return end != argv[a] && *end == '\0' && (v > 0.0 || (zero_ok && v == 0.0));
+    try {
+      v = cases::parse_number(argv[a], argv[a + 1]);  // the whole text, finite (cases/cli.hpp)
+    } catch (const mpskit::error&) {
+      return false;
+    }
+    ++a;
+    return v > 0.0 || (zero_ok && v == 0.0);
   };
   for (int a = 1; a < argc; ++a) {
     bool ok = true;

@@ -43,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "cases/cli.hpp"
 #include "cases/tanaka_obstacle_multires.hpp"
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
@@ -84,14 +85,23 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 5.0, ratio = 5.0;
     else if (!std::strcmp(argv[a], "--no-single")) single = false;
-    else if (!std::strcmp(argv[a], "--L") && has_value) L_mm = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--ratio") && has_value) ratio = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--T") && has_value) T_end = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--r0") && has_value) r0_mm = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--r1") && has_value) r1_mm = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
-    else if (!std::strcmp(argv[a], "--walls") && has_value) walls = argv[++a];
-    else return usage();
+    else {
+      // Numbers: the whole text, finite (cases/cli.hpp: `--r0 abc` is refused, not read as 0); ranges below.
+      const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
+      try {
+        if (!std::strcmp(argv[a], "--L") && has_value) L_mm = number("multires_dam_break: --L");
+        else if (!std::strcmp(argv[a], "--ratio") && has_value) ratio = number("multires_dam_break: --ratio");
+        else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("multires_dam_break: --T");
+        else if (!std::strcmp(argv[a], "--r0") && has_value) r0_mm = number("multires_dam_break: --r0");
+        else if (!std::strcmp(argv[a], "--r1") && has_value) r1_mm = number("multires_dam_break: --r1");
+        else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
+        else if (!std::strcmp(argv[a], "--walls") && has_value) walls = argv[++a];
+        else return usage();
+      } catch (const mpskit::error& e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return usage();
+      }
+    }
   }
   try {
     const char* who = "multires_dam_break";

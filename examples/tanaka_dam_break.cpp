@@ -44,6 +44,7 @@
 #include <string>
 #include <vector>
 
+#include "cases/cli.hpp"
 #include "cases/dam_break.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "mpskit/io/csv.hpp"
@@ -68,22 +69,22 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
-    else if (!std::strcmp(argv[a], "--L") && has_value) L_mm = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--T") && has_value) T_end = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
-    else if (!std::strcmp(argv[a], "--collision") && has_value) {
-      char* end = nullptr;
-      const char* v = argv[++a];
-      collision = std::strtod(v, &end);
-      if (end == v || *end != '\0') {  // not a number: refused, not read as 0 (which would switch the stage off)
-        std::fprintf(stderr, "tanaka_dam_break: --collision '%s': not a number\n", v);
-        return usage();
-      }
+    // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
+    // switch the stage off); the ranges are checked below.
+    const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
+    try {
+      if (!std::strcmp(argv[a], "--L") && has_value) L_mm = number("tanaka_dam_break: --L");
+      else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("tanaka_dam_break: --T");
+      else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
+      else if (!std::strcmp(argv[a], "--collision") && has_value) collision = number("tanaka_dam_break: --collision");
+      else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = number("tanaka_dam_break: --trace");
+      else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
+      else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
+      else return usage();
+    } catch (const mpskit::error& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return usage();
     }
-    else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = std::atof(argv[++a]);
-    else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
-    else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
-    else return usage();
   }
   try {
     if (!(L_mm > 0.0 && std::isfinite(L_mm))) fail("tanaka_dam_break: --L ", L_mm, " mm: must be > 0");

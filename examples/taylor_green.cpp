@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "cases/cli.hpp"
 #include "cases/taylor_green.hpp"
 
 int main(int argc, char** argv) {
@@ -14,11 +15,14 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[a], "--full")) {
       c.n = 200;
       c.t_end = 1.0;
-    } else if (positional == 0) {
-      c.n = std::atoi(argv[a]);
-      ++positional;
     } else {
-      c.t_end = std::atof(argv[a]);
+      try {  // the whole text a number (cases/cli.hpp), not atoi's silent 0
+        if (positional++ == 0) c.n = mpskit::cases::parse_integer("taylor_green: N", argv[a], 4);
+        else c.t_end = mpskit::cases::parse_number("taylor_green: t_end", argv[a], 1e-12);
+      } catch (const mpskit::error& e) {
+        std::fprintf(stderr, "%s\nusage: %s [--full] [N] [t_end]\n", e.what(), argv[0]);
+        return 2;
+      }
     }
   }
   const auto r = mpskit::cases::run_taylor_green(c);
