@@ -17,8 +17,8 @@
 //   particles.png (the multi-resolution run's last written state coloured by diameter), front.png
 // and prints a one-screen summary: particle saving, wall time and front error against single resolution.
 //
-// Usage: multires_dam_break [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--no-single] [--full]
-//                           [--out DIR]
+// Usage: multires_dam_break [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1]
+//                           [--no-single] [--full] [--out DIR]
 //   --L      coarse diameter in mm (default 5; the block is then two particles wide)
 //   --ratio  coarse / fine diameter (default 2: 2.5 mm at the block, the finest spacing at which the single-
 //            resolution reference runs over the block; at 2 mm it fails in the block impact, T ≈ 1.5)
@@ -27,6 +27,10 @@
 //   --r0, --r1  the refined zone's radius and the ramp's outer radius in mm (default 30, 60)
 //   --walls  the wall options of all three runs, a name of cases::tanaka_wall_variants (default
 //            neumann_points_wall_only_active_set, cases::obstacle_walls; docs/resolution.md "The main example")
+//   --collision  lsmps_params::collision.alpha1 of all three runs: the opt-in collision stage (default 0: off;
+//            docs/lsmps_scheme.md deviation 17); with --walls two_point_wall_only_active_set_own_loop_copies_-
+//            conditioned_limited and --collision 0.5 the runs get through the far-wall impact to t = 0.4 s (T = 5.6;
+//            docs/resolution.md "Speed against error")
 //   --no-single the multi-resolution run alone
 //   --full   the paper's sizes: L = 5 mm, ratio 5 (1 mm at the block), the single-resolution reference at 1 mm
 //            (24 969 particles in the paper); hours on two cores, and not expected to get through yet
@@ -73,11 +77,12 @@ std::string fmt_mm(double L) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  double L_mm = 5.0, ratio = 2.0, T_end = 2.4, r0_mm = 30.0, r1_mm = 60.0;
+  double L_mm = 5.0, ratio = 2.0, T_end = 2.4, r0_mm = 30.0, r1_mm = 60.0, collision = 0.0;
   bool single = true;
   std::string out = "out/multires_dam_break", walls = cases::obstacle_walls;
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--no-single] [--full] [--out DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--no-single] "
+                 "[--full] [--out DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -94,6 +99,7 @@ int main(int argc, char** argv) {
         else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("multires_dam_break: --T");
         else if (!std::strcmp(argv[a], "--r0") && has_value) r0_mm = number("multires_dam_break: --r0");
         else if (!std::strcmp(argv[a], "--r1") && has_value) r1_mm = number("multires_dam_break: --r1");
+        else if (!std::strcmp(argv[a], "--collision") && has_value) collision = number("multires_dam_break: --collision");
         else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
         else if (!std::strcmp(argv[a], "--walls") && has_value) walls = argv[++a];
         else return usage();
@@ -119,9 +125,9 @@ int main(int argc, char** argv) {
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "multires_dam_break");
     std::printf("mpskit: Tanaka's dam break with the 10 x 10 mm obstacle (Tanaka 2018 sec. 5.6.2), LSMPS scheme, walls '%s', "
-                "to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
+                "collision alpha1 %g, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
                 "single resolution at %g and %g mm%s\n",
-                walls.c_str(), T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
+                walls.c_str(), collision, T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
                 single ? "" : " skipped (--no-single)");
 
     std::vector<run_record> runs;
@@ -159,7 +165,8 @@ int main(int argc, char** argv) {
       runs.push_back(std::move(rec));
     };
 
-    const scheme::lsmps_params<2> p = cases::obstacle_params(walls);
+    scheme::lsmps_params<2> p = cases::obstacle_params(walls);
+    p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
     scheme::lsmps_params<2> pm = p;
     cases::refine_around_block(pm, cfg_coarse, ratio, 1e-3 * r0_mm, 1e-3 * r1_mm);
     run.operator()<cases::obstacle_multires_scene>("multi", cfg_coarse, pm, true);
