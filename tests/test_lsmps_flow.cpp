@@ -11,7 +11,6 @@
 #include <numbers>
 #include <random>
 #include <string>
-#include <tuple>
 #include <type_traits>
 #include <vector>
 
@@ -459,27 +458,40 @@ TEST_SUITE("bad_input") {
   }
 }
 
+namespace {
+/// Five steps of the inviscid Taylor-Green vortex (4900 particles: above exec::par's 4096-item threshold, so the
+/// loops do run on two threads) on `threads` threads, with the collision stage at collision_alpha1 (0: off): positions,
+/// velocities, pressures and the colliding pairs counted.
+struct tg_threads_run {
+  points<2> x, u;
+  Eigen::VectorXd p;
+  long collisions = 0;
+};
+[[maybe_unused]] tg_threads_run run_tg_threads(int threads, double collision_alpha1) {
+  cases::taylor_green_config c;
+  c.n = 70;
+  auto p = c.params;
+  p.nu = 0.0;
+  p.g.setZero();
+  p.domain.periodic = {true, true};
+  p.domain.hi = vec<2>::Constant(c.width);
+  p.time.dt_max = 0.09 / c.n;
+  p.collision.alpha1 = collision_alpha1;
+#ifdef _OPENMP
+  omp_set_num_threads(threads);
+#endif
+  simulation<cases::taylor_green_scene> sim(p, cases::taylor_green_state(c));
+  for (int k = 0; k < 5; ++k) sim.step();
+  return {sim.state().x(), sim.state().u(), sim.state().get<field::pressure>(), sim.counters().collisions};
+}
+}  // namespace
+
 TEST_SUITE("lsmps_threads") {
   TEST_CASE("LSMPS scheme: bitwise identical for 1 and 2 threads (Taylor-Green, 4900 particles, 5 steps)") {
-    // Above exec::par's 4096-item threshold, so the loops do run on two threads.
-    cases::taylor_green_config c;
-    c.n = 70;
-    auto p = c.params;
-    p.nu = 0.0;
-    p.g.setZero();
-    p.domain.periodic = {true, true};
-    p.domain.hi = vec<2>::Constant(c.width);
-    p.time.dt_max = 0.09 / c.n;
 #ifdef _OPENMP
-    const auto run = [&](int threads) {
-      omp_set_num_threads(threads);
-      simulation<cases::taylor_green_scene> sim(p, cases::taylor_green_state(c));
-      for (int k = 0; k < 5; ++k) sim.step();
-      return std::make_pair(points<2>(sim.state().x()), Eigen::VectorXd(sim.state().get<field::pressure>()));
-    };
-    const auto a = run(1), b = run(2);
-    CHECK((a.first.array() == b.first.array()).all());
-    CHECK((a.second.array() == b.second.array()).all());
+    const tg_threads_run a = run_tg_threads(1, 0.0), b = run_tg_threads(2, 0.0);
+    CHECK((a.x.array() == b.x.array()).all());
+    CHECK((a.p.array() == b.p.array()).all());
 #else
     MESSAGE("built without OpenMP: nothing to compare");
 #endif
@@ -489,28 +501,13 @@ TEST_SUITE("lsmps_threads") {
     // set-up with alpha1 = 1 (contact at r <= L_ij: the lattice's nearest neighbours are at r = L, so the
     // approaching pairs of the vortex's strain collide from the first step). Every Δu of the stage is computed
     // from the same u (Jacobi), so the thread count must not change a bit; and the stage must actually act.
-    cases::taylor_green_config c;
-    c.n = 70;
-    auto p = c.params;
-    p.nu = 0.0;
-    p.g.setZero();
-    p.domain.periodic = {true, true};
-    p.domain.hi = vec<2>::Constant(c.width);
-    p.time.dt_max = 0.09 / c.n;
-    p.collision.alpha1 = 1.0;
 #ifdef _OPENMP
-    const auto run = [&](int threads) {
-      omp_set_num_threads(threads);
-      simulation<cases::taylor_green_scene> sim(p, cases::taylor_green_state(c));
-      for (int k = 0; k < 5; ++k) sim.step();
-      return std::make_tuple(points<2>(sim.state().x()), points<2>(sim.state().u()), sim.counters().collisions);
-    };
-    const auto a = run(1), b = run(2);
-    CHECK(std::get<2>(a) > 0);
-    CHECK(std::get<2>(a) == std::get<2>(b));
-    CHECK((std::get<0>(a).array() == std::get<0>(b).array()).all());
-    CHECK((std::get<1>(a).array() == std::get<1>(b).array()).all());
-    MESSAGE("colliding pairs in 5 steps: " << std::get<2>(a));
+    const tg_threads_run a = run_tg_threads(1, 1.0), b = run_tg_threads(2, 1.0);
+    CHECK(a.collisions > 0);
+    CHECK(a.collisions == b.collisions);
+    CHECK((a.x.array() == b.x.array()).all());
+    CHECK((a.u.array() == b.u.array()).all());
+    MESSAGE("colliding pairs in 5 steps: " << a.collisions);
 #else
     MESSAGE("built without OpenMP: nothing to compare");
 #endif
