@@ -29,8 +29,9 @@
 //            neumann_points_wall_only_active_set, cases::obstacle_walls; docs/resolution.md "The main example")
 //   --collision  lsmps_params::collision.alpha1 of all three runs: the opt-in collision stage (default 0: off;
 //            docs/lsmps_scheme.md deviation 17); with --walls two_point_wall_only_active_set_own_loop_copies_-
-//            conditioned_limited and --collision 0.5 the runs get through the far-wall impact to t = 0.4 s (T = 5.6;
-//            docs/resolution.md "Speed against error")
+//            conditioned_limited and --collision 0.5 the 5 / 2.5 mm and 5 mm runs get through the far-wall impact
+//            to t = 0.4 s (T = 5.6), but the 2.5 mm one fails at the block (T = 1.99; docs/validation.md "Dam
+//            break with the obstacle")
 //   --no-single the multi-resolution run alone
 //   --full   the paper's sizes: L = 5 mm, ratio 5 (1 mm at the block), the single-resolution reference at 1 mm
 //            (24 969 particles in the paper); hours on two cores, and not expected to get through yet
@@ -115,6 +116,7 @@ int main(int argc, char** argv) {
     if (!(ratio >= 1.0 && std::isfinite(ratio))) fail(who, ": --ratio ", ratio, ": must be >= 1");
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail(who, ": --T ", T_end, ": must be > 0");
     cases::tanaka_wall_variant_named(walls, "multires_dam_break --walls");  // refused here, before any run
+    regularize::sized_collision_params{.alpha1 = collision}.validate();     // --collision, also before any run
     const double L = 1e-3 * L_mm, Lf = L / ratio;
     const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
     const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);

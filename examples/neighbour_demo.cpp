@@ -11,6 +11,7 @@
 #include <random>
 #include <string>
 
+#include "cases/cli.hpp"
 #include "mpskit/mpskit.hpp"
 
 using namespace mpskit;
@@ -23,9 +24,21 @@ int main(int argc, char** argv) {
   double jitter = 0.1;
   for (int a = 1; a < argc; ++a) {
     if (!std::strcmp(argv[a], "--full")) side = 1000;
-    else if (!std::strcmp(argv[a], "--n") && a + 1 < argc) side = std::stoi(argv[++a]);
-    else if (!std::strcmp(argv[a], "--jitter") && a + 1 < argc) jitter = std::stod(argv[++a]);
-    else { std::fprintf(stderr, "usage: %s [--full] [--n SIDE] [--jitter J]\n", argv[0]); return 2; }
+    else {
+      bool ok = true;
+      try {  // the whole text a number (cases/cli.hpp)
+        if (!std::strcmp(argv[a], "--n") && a + 1 < argc) side = cases::parse_integer("neighbour_demo: --n", argv[++a], 2);
+        else if (!std::strcmp(argv[a], "--jitter") && a + 1 < argc) jitter = cases::parse_number("neighbour_demo: --jitter", argv[++a], 0.0);
+        else ok = false;
+      } catch (const mpskit::error& e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        ok = false;
+      }
+      if (!ok) {
+        std::fprintf(stderr, "usage: %s [--full] [--n SIDE] [--jitter J]\n", argv[0]);
+        return 2;
+      }
+    }
   }
   const double l0 = 1e-3;
   const index_t n = static_cast<index_t>(side) * side;

@@ -69,21 +69,23 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
-    // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
-    // switch the stage off); the ranges are checked below.
-    const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
-    try {
-      if (!std::strcmp(argv[a], "--L") && has_value) L_mm = number("tanaka_dam_break: --L");
-      else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("tanaka_dam_break: --T");
-      else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
-      else if (!std::strcmp(argv[a], "--collision") && has_value) collision = number("tanaka_dam_break: --collision");
-      else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = number("tanaka_dam_break: --trace");
-      else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
-      else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
-      else return usage();
-    } catch (const mpskit::error& e) {
-      std::fprintf(stderr, "%s\n", e.what());
-      return usage();
+    else {
+      // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
+      // switch the stage off); the ranges are checked below.
+      const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
+      try {
+        if (!std::strcmp(argv[a], "--L") && has_value) L_mm = number("tanaka_dam_break: --L");
+        else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("tanaka_dam_break: --T");
+        else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
+        else if (!std::strcmp(argv[a], "--collision") && has_value) collision = number("tanaka_dam_break: --collision");
+        else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = number("tanaka_dam_break: --trace");
+        else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
+        else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
+        else return usage();
+      } catch (const mpskit::error& e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return usage();
+      }
     }
   }
   try {
@@ -92,6 +94,7 @@ int main(int argc, char** argv) {
     if (trace && !(trace_speed >= 0.0 && std::isfinite(trace_speed)))
       fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
+    regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
     cases::tanaka_dam_break_config cfg = obstacle ? cases::tanaka_obstacle_config(1e-3 * L_mm) : cases::tanaka_dam_break_config{};
     cfg.L = 1e-3 * L_mm;
     cfg.validate();

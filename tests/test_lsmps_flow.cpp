@@ -507,6 +507,7 @@ TEST_SUITE("lsmps_threads") {
     CHECK(a.collisions == b.collisions);
     CHECK((a.x.array() == b.x.array()).all());
     CHECK((a.u.array() == b.u.array()).all());
+    CHECK((a.p.array() == b.p.array()).all());
     MESSAGE("colliding pairs in 5 steps: " << a.collisions);
 #else
     MESSAGE("built without OpenMP: nothing to compare");

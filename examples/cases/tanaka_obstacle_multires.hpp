@@ -61,17 +61,17 @@ struct front_difference {
   int samples = 0;
 };
 
-/// The run's front at the reference's sample times up to T_max, linear between its own samples (both sample at the
+/// The run's front at the reference's sample times T ≤ T_limit, linear between its own samples (both sample at the
 /// first step at or after each multiple of 0.05 T, so their times differ by up to a step).
 inline front_difference compare_fronts(const tanaka_dam_break_result& run, const tanaka_dam_break_result& ref,
-                                       double T_max = std::numeric_limits<double>::infinity()) {
+                                       double T_limit = std::numeric_limits<double>::infinity()) {
   const std::vector<double>& T = run.T;
   const std::vector<double>& Z = run.Z;
   front_difference d;
   double sum = 0.0;
   for (std::size_t k = 0; k < ref.T.size() && T.size() >= 2; ++k) {
     const double t = ref.T[k];
-    if (t < T.front() || t > T.back() || t > T_max) continue;
+    if (t < T.front() || t > T.back() || t > T_limit) continue;
     const std::size_t j = std::clamp<std::size_t>(
         static_cast<std::size_t>(std::upper_bound(T.begin(), T.end(), t) - T.begin()), 1, T.size() - 1);
     const double a = (t - T[j - 1]) / (T[j] - T[j - 1]);
