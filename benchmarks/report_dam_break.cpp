@@ -161,12 +161,9 @@ bench::configuration make_lsmps(int order, int N, double T_end, const std::vecto
   walls.apply(p);
   c.run = [cfg, data, T_end, c_name, p]() {
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true);
-    if (r.failed) std::cout << "  " << c_name << ": failed at T = " << r.T_failed << ": " << r.failure << "\n";
     bench::run_outcome o = outcome_of(r, *data, T_end, c_name);
-    if (r.failed)  // errors over the samples before a failure are not comparable: left out of the plot
-      for (bench::metric& m : o.errors) m.value = std::nan("");
-    o.errors.push_back({"completed", r.failed ? 0.0 : 1.0});
-    o.errors.push_back({"T_reached/100", (r.failed ? r.T_failed : T_end) / 100.0});
+    bench::record_completion(o, r.failed ? "at T = " + std::to_string(r.T_failed) + ": " + r.failure : "",
+                             r.failed ? r.T_failed : T_end);
     o.errors.push_back({"p_min/rho_g_H", r.p_min / r.rho_g_h});
     const cases::impact_measures m = cases::measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
     const double nan = std::nan(""), T_of = std::sqrt(2.0 * cfg.g / cfg.column_width);

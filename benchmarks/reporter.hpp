@@ -38,7 +38,21 @@ struct run_outcome {
   double wall_seconds = 0.0;      ///< wall time of the time loop (set-up excluded)
   long ppe_iterations = 0;        ///< PPE iterations summed over steps
   std::vector<metric> errors;     ///< error metrics against the reference
+  std::string failure;            ///< why the run stopped before its end; empty when it completed
 };
+
+/// Records how far a run got: `failure` (empty when it completed; else why it stopped, e.g. "at T = 1.99: ...")
+/// goes to the outcome, whose error metrics become NaN when it failed (errors over the samples before a failure are
+/// not comparable with complete runs: NaN leaves them out of plots and speed-ups), and two metrics are appended:
+/// `completed` (1 or 0) and `T_reached/100` (the dimensionless time reached, over 100 so the Markdown table's
+/// 100 × prints it).
+inline void record_completion(run_outcome& o, const std::string& failure, double T_reached) {
+  o.failure = failure;
+  if (!failure.empty())
+    for (metric& m : o.errors) m.value = std::nan("");
+  o.errors.push_back({"completed", failure.empty() ? 1.0 : 0.0});
+  o.errors.push_back({"T_reached/100", T_reached / 100.0});
+}
 
 /// A configuration: a name, a series it belongs to (one plotted line, e.g. the solver), its spacing,
 /// and the run itself.
@@ -60,6 +74,7 @@ struct run_record {
   double particle_steps_per_second = 0.0;  ///< particles × steps / median wall time
   double ppe_iterations_mean = 0.0;    ///< PPE iterations per step
   std::vector<metric> errors;          ///< from the first repetition (runs are deterministic)
+  std::string failure;                 ///< the run's failure (empty: completed); a failed run is not repeated
 };
 
 /// Median of a non-empty list.
@@ -153,6 +168,13 @@ class reporter {
         r.wall_seconds.push_back(o.wall_seconds);
         log << "  " << c.name << " run " << k + 1 << "/" << reps_ << ": " << o.wall_seconds << " s, " << o.steps
             << " steps" << std::endl;
+        if (!o.failure.empty()) {
+          // Runs are deterministic: a repetition would fail the same way, so the study goes on with the next
+          // configuration; the record keeps the failure and the caller's metrics (NaN where not comparable).
+          r.failure = o.failure;
+          log << "  " << c.name << " failed: " << o.failure << " (not repeated)" << std::endl;
+          break;
+        }
       }
       r.wall_median = median(r.wall_seconds);
       r.particle_steps_per_second = double(r.particles) * double(r.steps) / r.wall_median;
@@ -193,7 +215,7 @@ class reporter {
     for (std::size_t k = 0; k < metric_names().size(); ++k) o << "---|";
     o << '\n';
     for (const run_record& r : records_) {
-      o << "| " << r.name << " | " << std::setprecision(4) << r.l0 << " | " << r.particles << " | " << r.steps << " | "
+      o << "| " << r.name << (r.failure.empty() ? "" : " (failed)") << " | " << std::setprecision(4) << r.l0 << " | " << r.particles << " | " << r.steps << " | "
         << std::fixed << std::setprecision(2) << r.wall_median << " | " << std::setprecision(0)
         << r.particle_steps_per_second << " | " << std::setprecision(1) << r.ppe_iterations_mean << " |";
       for (const std::string& m : metric_names()) o << ' ' << std::setprecision(2) << 100.0 * value(r, m) << " |";
