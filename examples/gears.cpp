@@ -8,6 +8,10 @@
 // Usage: gears [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] [--geometry-only]
 //   default: L* from 0.2 mm (d < 7 mm) to 0.8 mm, to 0.05 s (≈ 2 min of one core)
 //   --full:  the paper's 0.4 s with L* from 0.1 mm (d < 4 mm) to 0.8 mm (hours of one core; --wall-limit stops it)
+//   --window S: the volume balance's averaging over the last S seconds (default 0.01 s; must be < --t-end; with a
+//            --t-end not longer than the default window the window becomes 0.2 t_end, and the example says so).
+//   A value that is not wholly a number, or is <= 0 (< 0 for --filter and --two-point, where 0 switches off), is
+//   refused with the option named.
 // Knobs for experiments (docs/gears.md): --lmin L --lmax L --rfine R --tip-round R --root-round R, --two-point B (copy row β),
 // --filter E (one-sided-band filter ε), --courant C, --alpha-w A, --alpha-o A, --cprime D (eq. 62's c′ = 1 ± D),
 // --shift-as-printed (eq. 99 on the fluid pairs too), --no-merge; solvers: UMFPACK when the build has SuiteSparse, else ILUT-BiCGSTAB (--ilut forces
@@ -45,16 +49,22 @@ int run(int argc, char** argv) {
   cases::gears_config c;
   std::string out = "out/gears";
   double vtk_every = 2e-3;
-  bool geometry_only = false, jacobi = false, ilut = false;
+  bool geometry_only = false, jacobi = false, ilut = false, window_given = false;
+  std::string why;  // what was wrong with an option's value, printed before the usage
   const auto number = [&](int& a, double& v, bool zero_ok = false) {
     if (a + 1 >= argc) return false;
     try {
-      v = cases::parse_number(argv[a], argv[a + 1]);  // the whole text, finite (cases/cli.hpp)
-    } catch (const mpskit::error&) {
+      v = cases::parse_number(argv[a], argv[a + 1], 0.0);  // the whole text, finite, >= 0 (cases/cli.hpp)
+    } catch (const mpskit::error& e) {
+      why = e.what();
+      return false;
+    }
+    if (v == 0.0 && !zero_ok) {  // zero switches off only the options that say so
+      why = std::string(argv[a]) + " '" + argv[a + 1] + "': must be > 0";
       return false;
     }
     ++a;
-    return v > 0.0 || (zero_ok && v == 0.0);
+    return true;
   };
   for (int a = 1; a < argc; ++a) {
     bool ok = true;
@@ -80,7 +90,7 @@ int run(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--courant")) ok = number(a, c.params.time.courant);
     else if (!std::strcmp(argv[a], "--alpha-w")) ok = number(a, c.params.walls.alpha_w);
     else if (!std::strcmp(argv[a], "--alpha-o")) ok = number(a, c.boundary.alpha_o);
-    else if (!std::strcmp(argv[a], "--window")) ok = number(a, c.window);
+    else if (!std::strcmp(argv[a], "--window")) ok = window_given = number(a, c.window);
     else if (!std::strcmp(argv[a], "--vtk-every")) ok = number(a, vtk_every);
     else if (!std::strcmp(argv[a], "--geometry-only")) geometry_only = true;
     else if (!std::strcmp(argv[a], "--no-merge")) c.params.resolution.merge = false;
@@ -95,12 +105,22 @@ int run(int argc, char** argv) {
     }
     else ok = false;
     if (!ok) {
+      if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
       std::fprintf(stderr, "usage: %s [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] "
                            "[--geometry-only] (more knobs: see the file's header)\n", argv[0]);
       return 2;
     }
   }
-  if (!(c.t_end > c.window)) c.window = 0.2 * c.t_end;
+  if (!(c.t_end > c.window)) {
+    // The averaging window must end inside the run: a given one is refused, the default follows a short --t-end.
+    if (window_given) {
+      std::fprintf(stderr, "gears: --window %g must be shorter than --t-end %g\n", c.window, c.t_end);
+      return 2;
+    }
+    c.window = 0.2 * c.t_end;
+    std::printf("gears: --t-end %g is not longer than the default window: averaging over the last %g s\n", c.t_end,
+                c.window);
+  }
   fs::create_directories(out);
   const cases::gears_geometry g = cases::make_gears_geometry(c.geometry);
   const fs::path poly = fs::path(out) / "gears.polyline";
