@@ -1033,7 +1033,7 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 34);
+    REQUIRE(v.size() == 36);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
@@ -1043,10 +1043,12 @@ TEST_SUITE("restart") {
     v[30] = 15;  // ppe_fallbacks
     v[31] = 16;  // shift_velocity_clipped
     v[32] = 17;  // ppe_breakdown_restarts
-    v[33] = 18;  // collisions, the last value
+    v[33] = 18;  // collisions
+    v[34] = 19;  // collision_coincident
+    v[35] = 20;  // shift_coincident, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("34.mpscp", v), b);
+    io::load_simulation(write("36.mpscp", v), b);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);
@@ -1057,6 +1059,8 @@ TEST_SUITE("restart") {
     CHECK(b.counters().shift_velocity_clipped == 16);
     CHECK(b.counters().ppe_breakdown_restarts == 17);
     CHECK(b.counters().collisions == 18);
+    CHECK(b.counters().collision_coincident == 19);
+    CHECK(b.counters().shift_coincident == 20);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
     md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1080,6 +1084,11 @@ TEST_SUITE("restart") {
     io::load_simulation(write("33.mpscp", head(33)), b33);
     CHECK(b33.counters().ppe_breakdown_restarts == 17);
     CHECK(b33.counters().collisions == 0);
+    md_sim b34(su.params, su.initial, &su.walls, &*su.boundary);
+    io::load_simulation(write("34.mpscp", head(34)), b34);
+    CHECK(b34.counters().collisions == 18);
+    CHECK(b34.counters().collision_coincident == 0);
+    CHECK(b34.counters().shift_coincident == 0);
     md_sim b25(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("25.mpscp", head(25)), b25);
     CHECK(b25.counters().filter_amplifying == 7);
@@ -1093,9 +1102,9 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 34"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 36"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("35.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 35 values, expected 34"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("37.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 37 values, expected 36"), mpskit::error);
   }
 }

@@ -329,6 +329,8 @@ struct lsmps_counters {
   long shift_limited = 0;          ///< shifts limited to α_S L (eq. 100)
   long shift_velocity_clipped = 0; ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   long collisions = 0;             ///< colliding directed pairs of the collision stage (lsmps_params::collision)
+  long collision_coincident = 0;   ///< directed pairs at r = 0 the collision stage skipped (no direction; should be 0)
+  long shift_coincident = 0;       ///< directed pairs at r = 0 the shifting left out of eq. 94 (should be 0)
   long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
   long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
   long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
@@ -358,7 +360,7 @@ struct lsmps_counters {
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
 /// the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 34> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 36> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -370,7 +372,7 @@ inline constexpr std::array<long lsmps_counters::*, 34> lsmps_counter_fields{
     &lsmps_counters::filter_tapered, &lsmps_counters::own_loop_checked, &lsmps_counters::own_loop_dirichlet,
     &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
     &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
-    &lsmps_counters::collisions};
+    &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident};
 // A counter added to lsmps_counters without a place in the list above fails here.
 static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 2 * sizeof(double));
 
@@ -952,6 +954,7 @@ class lsmps_semi_implicit {
                                      movable, p_.collision, collision_du_);
     s_.u().leftCols(n) += collision_du_.leftCols(n);
     c_.collisions += static_cast<long>(rep.pairs);
+    c_.collision_coincident += static_cast<long>(rep.coincident);
   }
 
   /// Tanaka's shifting (eqs. 93–100) from this step's list at x^k; δu = ∇u δx (eq. 91) with the corrected
@@ -996,6 +999,7 @@ class lsmps_semi_implicit {
                                                            tangential, active, p_.shift, dx_, &wall_normal_,
                                                            second ? &wall_normal2_ : nullptr);
     c_.shift_limited += static_cast<long>(rep.limited);
+    c_.shift_coincident += static_cast<long>(rep.coincident_pairs);
     if (p_.shift_merged_faces && walls_ && nc_ > n) keep_off_merged_faces(n);
     for (int a = 0; a < D; ++a) comp_[a] = s_.u().row(a).transpose();
     if (!p_.shift_velocity_limit) {
