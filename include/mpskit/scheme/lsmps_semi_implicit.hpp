@@ -721,10 +721,7 @@ class lsmps_semi_implicit {
   /// Steps until time() >= t_end (the last step is not shortened), calling observer(*this) after each.
   template <class Observer>
   void run_until(double t_end, Observer&& observer) {
-    while (t_ < t_end - 1e-12 * std::max(1.0, std::abs(t_end))) {
-      step();
-      observer(*this);
-    }
+    step_until(*this, t_end, observer);
   }
   /// Steps until time() >= t_end.
   void run_until(double t_end) {

@@ -325,10 +325,7 @@ class semi_implicit {
   /// each step when given.
   template <class Observer>
   void run_until(double t_end, Observer&& observer) {
-    while (t_ < t_end - 1e-12 * std::max(1.0, std::abs(t_end))) {
-      step();
-      observer(*this);
-    }
+    step_until(*this, t_end, observer);
   }
   /// Steps until time() >= t_end.
   void run_until(double t_end) {

@@ -156,4 +156,15 @@ class time_step_controller {
   time_step_state s_{};
 };
 
+/// The steppers' run_until: steps `stepper` until stepper.time() >= t_end (the last step is not shortened; a slack
+/// of 1e-12 max(1, |t_end|) keeps a t_end reached up to rounding from taking one step more), calling
+/// observer(stepper) after each step.
+template <class Stepper, class Observer>
+void step_until(Stepper& stepper, double t_end, Observer&& observer) {
+  while (stepper.time() < t_end - 1e-12 * std::max(1.0, std::abs(t_end))) {
+    stepper.step();
+    observer(stepper);
+  }
+}
+
 }  // namespace mpskit::scheme
