@@ -61,16 +61,7 @@ bool same_bits(const A& a, const A& b) {
 }
 
 void check_same_counters(const scheme::semi_implicit_counters& a, const scheme::semi_implicit_counters& b) {
-  CHECK(a.steps == b.steps);
-  CHECK(a.ppe_iterations == b.ppe_iterations);
-  CHECK(a.ppe_iterations_max == b.ppe_iterations_max);
-  CHECK(a.pinned_components == b.pinned_components);
-  CHECK(a.isolated == b.isolated);
-  CHECK(a.list_builds == b.list_builds);
-  CHECK(a.reorders == b.reorders);
-  CHECK(a.negative_clamped == b.negative_clamped);
-  CHECK(a.ppe_fallbacks == b.ppe_fallbacks);
-  CHECK(a.ppe_breakdown_restarts == b.ppe_breakdown_restarts);
+  for (long scheme::semi_implicit_counters::*f : scheme::semi_implicit_counter_fields) CHECK(a.*f == b.*f);
 }
 }  // namespace
 

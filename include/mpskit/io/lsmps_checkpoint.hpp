@@ -44,8 +44,8 @@ inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counte
 inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.size();
 /// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01)
 /// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
-/// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03) or collisions (33, 2026-12-03):
-/// still read, the missing counters 0.
+/// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33, 2026-12-03) or
+/// collision_coincident and shift_coincident (34, 35, 2026-12-03): still read, the missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 

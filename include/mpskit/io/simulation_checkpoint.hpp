@@ -43,9 +43,9 @@ checkpoint_sections simulation_sections(const Sim& sim) {
   s.add("semi_implicit.time", sim.time());
   s.add("semi_implicit.l0", sim.params().l0);
   const scheme::semi_implicit_counters& c = sim.counters();
-  s.add_int64s("semi_implicit.counters", {c.steps, c.ppe_iterations, c.ppe_iterations_max, c.pinned_components,
-                                          c.isolated, c.list_builds, c.reorders, c.negative_clamped,
-                                          c.ppe_fallbacks, c.ppe_breakdown_restarts});
+  std::vector<std::int64_t> cv;
+  for (long scheme::semi_implicit_counters::*f : scheme::semi_implicit_counter_fields) cv.push_back(c.*f);
+  s.add_int64s("semi_implicit.counters", cv);
   const scheme::time_step_state& ts = sim.time_step().state();
   s.add_int64s("semi_implicit.time_step", scheme::section_values(ts));
   return s;
@@ -83,25 +83,18 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
     fail("load_simulation: '", file, "': written with l0 = ", l0, " m, the simulation has l0 = ", sim.params().l0, " m");
   const std::vector<std::int64_t> c = s.get_int64s("semi_implicit.counters");
   const std::vector<std::int64_t> ts = s.get_int64s("semi_implicit.time_step");
-  if (c.size() < 8 || c.size() > 10)
-    fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected 10 (or 8 or 9 from older files)");
+  constexpr std::size_t count = scheme::semi_implicit_counter_fields.size(), count_min = 8;  // 8, 9: older files
+  if (c.size() < count_min || c.size() > count)
+    fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected ",
+         count, " (or ", count_min, " to ", count - 1, " from older files)");
   if (ts.size() != 3) fail("load_simulation: '", file, "': section 'semi_implicit.time_step' holds ", ts.size(), " values, expected 3");
   for (std::int64_t v : c)
     if (v < 0) fail("load_simulation: '", file, "': a counter is negative (", v, ")");
   if (ts[0] < 0 || ts[0] > sim.time_step().max_rungs() || ts[1] < 0 || ts[2] < 0)
     fail("load_simulation: '", file, "': time-step state {", ts[0], ", ", ts[1], ", ", ts[2],
          "} out of range (rungs in [0, ", sim.time_step().max_rungs(), "], counts >= 0)");
-  scheme::semi_implicit_counters k;
-  k.steps = c[0];
-  k.ppe_iterations = c[1];
-  k.ppe_iterations_max = c[2];
-  k.pinned_components = c[3];
-  k.isolated = c[4];
-  k.list_builds = c[5];
-  k.reorders = c[6];
-  k.negative_clamped = c[7];
-  k.ppe_fallbacks = c.size() > 8 ? c[8] : 0;
-  k.ppe_breakdown_restarts = c.size() > 9 ? c[9] : 0;
+  scheme::semi_implicit_counters k;  // counters an older file lacks stay 0
+  for (std::size_t j = 0; j < c.size(); ++j) k.*scheme::semi_implicit_counter_fields[j] = static_cast<long>(c[j]);
   const scheme::time_step_state tss = scheme::time_step_state_from(ts);
   sim.state() = std::move(st);
   sim.restore(t, k, tss);

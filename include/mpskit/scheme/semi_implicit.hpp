@@ -27,6 +27,7 @@
 ///     default; regularize/boundary_filter.hpp).
 ///  9. Shifting if the scene names one; NaN/inf check naming step, time and particle.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -131,6 +132,17 @@ struct semi_implicit_counters {
   long ppe_fallbacks = 0;         ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
 };
+
+/// semi_implicit_counters in checkpoint order (io/simulation_checkpoint.hpp; a counter added later goes last, and the
+/// loader reads older files' shorter lists): the one list that saving and loading walk.
+inline constexpr std::array<long semi_implicit_counters::*, 10> semi_implicit_counter_fields{
+    &semi_implicit_counters::steps,         &semi_implicit_counters::ppe_iterations,
+    &semi_implicit_counters::ppe_iterations_max, &semi_implicit_counters::pinned_components,
+    &semi_implicit_counters::isolated,      &semi_implicit_counters::list_builds,
+    &semi_implicit_counters::reorders,      &semi_implicit_counters::negative_clamped,
+    &semi_implicit_counters::ppe_fallbacks, &semi_implicit_counters::ppe_breakdown_restarts};
+// A counter added to semi_implicit_counters without a place in the list above fails here.
+static_assert(sizeof(semi_implicit_counters) == semi_implicit_counter_fields.size() * sizeof(long));
 
 /// Particle state of the classic scheme: core fields + pressure + number density.
 template <int D>
