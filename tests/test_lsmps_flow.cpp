@@ -467,16 +467,21 @@ struct tg_threads_run {
   Eigen::VectorXd p;
   long collisions = 0;
 };
-[[maybe_unused]] tg_threads_run run_tg_threads(int threads, double collision_alpha1) {
+/// The inviscid Taylor-Green vortex on an n x n lattice, periodic in both axes, with the collision stage at alpha1.
+cases::taylor_green_config tg_periodic(int n, double collision_alpha1) {
   cases::taylor_green_config c;
-  c.n = 70;
-  auto p = c.params;
-  p.nu = 0.0;
-  p.g.setZero();
-  p.domain.periodic = {true, true};
-  p.domain.hi = vec<2>::Constant(c.width);
-  p.time.dt_max = 0.09 / c.n;
-  p.collision.alpha1 = collision_alpha1;
+  c.n = n;
+  c.params.nu = 0.0;
+  c.params.g.setZero();
+  c.params.domain.periodic = {true, true};
+  c.params.domain.hi = vec<2>::Constant(c.width);
+  c.params.time.dt_max = 0.09 / c.n;
+  c.params.collision.alpha1 = collision_alpha1;
+  return c;
+}
+[[maybe_unused]] tg_threads_run run_tg_threads(int threads, double collision_alpha1) {
+  const cases::taylor_green_config c = tg_periodic(70, collision_alpha1);
+  const auto& p = c.params;
 #ifdef _OPENMP
   omp_set_num_threads(threads);
 #endif
@@ -502,15 +507,7 @@ TEST_SUITE("lsmps_threads") {
     // direction. The Taylor-Green lattice (20 x 20, periodic) with particle 210 duplicated (same x, u, V): one step
     // counts 2 directed pairs in each; the lattice without the duplicate counts none.
     const auto one_step = [](bool duplicate) {
-      cases::taylor_green_config c;
-      c.n = 20;
-      auto p = c.params;
-      p.nu = 0.0;
-      p.g.setZero();
-      p.domain.periodic = {true, true};
-      p.domain.hi = vec<2>::Constant(c.width);
-      p.time.dt_max = 0.09 / c.n;
-      p.collision.alpha1 = 0.5;
+      const cases::taylor_green_config c = tg_periodic(20, 0.5);
       const scheme::lsmps_state<2> lattice = cases::taylor_green_state(c);
       const index_t n = lattice.n_real() + (duplicate ? 1 : 0), k = 210;
       scheme::lsmps_state<2> s(n);
@@ -520,7 +517,7 @@ TEST_SUITE("lsmps_threads") {
         s.u().col(i) = lattice.u().col(from);
         s.get<field::volume>()[i] = lattice.get<field::volume>()[from];
       }
-      simulation<cases::taylor_green_scene> sim(p, std::move(s));
+      simulation<cases::taylor_green_scene> sim(c.params, std::move(s));
       sim.step();
       return sim.counters();
     };
