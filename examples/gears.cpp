@@ -8,8 +8,9 @@
 // Usage: gears [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] [--geometry-only]
 //   default: L* from 0.2 mm (d < 7 mm) to 0.8 mm, to 0.05 s (≈ 2 min of one core)
 //   --full:  the paper's 0.4 s with L* from 0.1 mm (d < 4 mm) to 0.8 mm (hours of one core; --wall-limit stops it)
-//   --window S: the volume balance's averaging over the last S seconds (default 0.01 s; must be < --t-end; with a
-//            --t-end not longer than the default window the window becomes 0.2 t_end, and the example says so).
+//   --window S: the volume balance's averaging over the last S seconds (default 0.01 s, 0.1 s with --full; must be
+//            < --t-end; with a --t-end not longer than the default window the window becomes 0.2 t_end, and the
+//            example says so). Options given with --full override its values, in any order.
 //   A value that is not wholly a number, or is <= 0 (< 0 for --filter and --two-point, where 0 switches off), is
 //   refused with the option named.
 // Knobs for experiments (docs/gears.md): --lmin L --lmax L --rfine R --tip-round R --root-round R, --two-point B (copy row β),
@@ -52,28 +53,36 @@ int run(int argc, char** argv) {
   bool geometry_only = false, jacobi = false, ilut = false, window_given = false;
   std::string why;  // what was wrong with an option's value, printed before the usage
   const auto number = [&](int& a, double& v, bool zero_ok = false) {
-    if (a + 1 >= argc) return false;
+    if (a + 1 >= argc) {
+      why = std::string(argv[a]) + ": needs a value";
+      return false;
+    }
     try {
-      v = cases::parse_number(argv[a], argv[a + 1], 0.0);  // the whole text, finite, >= 0 (cases/cli.hpp)
+      v = cases::parse_number(argv[a], argv[a + 1]);  // the whole text, finite (cases/cli.hpp)
     } catch (const mpskit::error& e) {
       why = e.what();
       return false;
     }
-    if (v == 0.0 && !zero_ok) {  // zero switches off only the options that say so
-      why = std::string(argv[a]) + " '" + argv[a + 1] + "': must be > 0";
+    if (v < 0.0 || (v == 0.0 && !zero_ok)) {  // zero switches off only the options that say so
+      why = std::string(argv[a]) + " '" + argv[a + 1] + "': must be " + (zero_ok ? ">= 0" : "> 0");
       return false;
     }
     ++a;
     return true;
   };
-  for (int a = 1; a < argc; ++a) {
-    bool ok = true;
+  // --full first, wherever it stands, so that the options given with it override its values.
+  for (int a = 1; a < argc; ++a)
     if (!std::strcmp(argv[a], "--full")) {
       c.L_min = 0.1e-3;
       c.r_fine = 4e-3;
       c.t_end = 0.4;
       c.window = 0.1;
       vtk_every = 0.02;
+    }
+  for (int a = 1; a < argc; ++a) {
+    bool ok = true;
+    if (!std::strcmp(argv[a], "--full")) {
+      // applied above
     } else if (!std::strcmp(argv[a], "--out") && a + 1 < argc) out = argv[++a];
     else if (!std::strcmp(argv[a], "--t-end")) ok = number(a, c.t_end);
     else if (!std::strcmp(argv[a], "--lmin")) ok = number(a, c.L_min);

@@ -1010,7 +1010,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 34 values, or of 24 to 33 (older files), the missing ones read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 36 values, or of 24 to 35 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);

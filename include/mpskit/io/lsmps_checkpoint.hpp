@@ -5,8 +5,8 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×34, lsmps_counters' integer counters in the order of
-///                               detail::lsmps_counter_values (older files hold 24 to 33, the missing ones
+///   `lsmps.counters`            int64 ×36, lsmps_counters' integer counters in the order of
+///                               detail::lsmps_counter_values (older files hold 24 to 35, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume}
 ///   `lsmps.time_step`           int64 {halvings, held, changes}
