@@ -162,8 +162,7 @@ bench::configuration make_lsmps(int order, int N, double T_end, const std::vecto
   c.run = [cfg, data, T_end, c_name, p]() {
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true);
     bench::run_outcome o = outcome_of(r, *data, T_end, c_name);
-    bench::record_completion(o, r.failed ? "at T = " + std::to_string(r.T_failed) + ": " + r.failure : "",
-                             r.failed ? r.T_failed : T_end);
+    bench::record_completion(o, r.failed, r.failed ? r.T_failed : T_end, r.failure);
     o.errors.push_back({"p_min/rho_g_H", r.p_min / r.rho_g_h});
     const cases::impact_measures m = cases::measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
     const double nan = std::nan(""), T_of = std::sqrt(2.0 * cfg.g / cfg.column_width);

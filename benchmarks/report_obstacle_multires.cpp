@@ -82,8 +82,7 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cas
   out.errors = {{"front_rms", d.rms}, {"front_max", d.max}, {"impulse_error", impulse_error}};
   // A failed run stays in the study (its metrics NaN, its time and how far it got recorded), so one fragile
   // configuration does not cost the others' results.
-  bench::record_completion(out, r.failed ? "at T = " + std::to_string(r.T_failed) + ": " + r.failure : "",
-                           r.failed ? r.T_failed : T_end);
+  bench::record_completion(out, r.failed, r.failed ? r.T_failed : T_end, r.failure);
   return out;
 }
 
@@ -103,7 +102,8 @@ void speed_ups(const bench::reporter& rep, const char* metric, std::ostream& log
     if (m.series != "multi" || curve.empty()) continue;
     const double e = bench::reporter::value(m, metric);
     if (!usable(e)) {
-      log << m.name << ", " << metric << " " << e << ": no speed-up\n";
+      log << m.name << ", " << metric << " " << e << (m.failure.empty() ? "" : " (failed " + m.failure + ")")
+          << ": no speed-up\n";
       continue;
     }
     const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, e});

@@ -41,16 +41,19 @@ struct run_outcome {
   std::string failure;            ///< why the run stopped before its end; empty when it completed
 };
 
-/// Records how far a run got: `failure` (empty when it completed; else why it stopped, e.g. "at T = 1.99: ...")
-/// goes to the outcome, whose error metrics become NaN when it failed (errors over the samples before a failure are
-/// not comparable with complete runs: NaN leaves them out of plots and speed-ups), and two metrics are appended:
-/// `completed` (1 or 0) and `T_reached/100` (the dimensionless time reached, over 100 so the Markdown table's
-/// 100 × prints it).
-inline void record_completion(run_outcome& o, const std::string& failure, double T_reached) {
-  o.failure = failure;
-  if (!failure.empty())
+/// Records how far a run got: T_reached (its end, or where it failed) and, when it `failed`, why (the outcome's
+/// `failure` becomes "at T = <T_reached>: <why>"). A failed run's error metrics become NaN (errors over the samples
+/// before a failure are not comparable with complete runs: NaN leaves them out of plots and speed-ups); two metrics
+/// are appended: `completed` (1 or 0) and `T_reached/100` (the dimensionless time reached, over 100 so the Markdown
+/// table's 100 × prints it).
+inline void record_completion(run_outcome& o, bool failed, double T_reached, const std::string& why = "") {
+  if (failed) {
+    std::ostringstream f;
+    f << "at T = " << T_reached << ": " << why;
+    o.failure = f.str();
     for (metric& m : o.errors) m.value = std::nan("");
-  o.errors.push_back({"completed", failure.empty() ? 1.0 : 0.0});
+  }
+  o.errors.push_back({"completed", failed ? 0.0 : 1.0});
   o.errors.push_back({"T_reached/100", T_reached / 100.0});
 }
 
@@ -172,7 +175,7 @@ class reporter {
           // Runs are deterministic: a repetition would fail the same way, so the study goes on with the next
           // configuration; the record keeps the failure and the caller's metrics (NaN where not comparable).
           r.failure = o.failure;
-          log << "  " << c.name << " failed: " << o.failure << " (not repeated)" << std::endl;
+          log << "  " << c.name << ": failed " << o.failure << " (not repeated)" << std::endl;
           break;
         }
       }
