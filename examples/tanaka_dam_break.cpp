@@ -8,8 +8,8 @@
 // and prints a summary: the front against the band, the lowest fluid pressure against −ρgH, the closest pair,
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
-// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--obstacle] [--full] [--trace U]
-//                         [--out DIR] [--data DIR]
+// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--collide-isolated] [--lid mm]
+//                         [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
 //   --L      particle diameter in mm (default 5: the spacing at which the default wall options get through
 //            the far-wall impact; docs/lsmps_scheme.md, deviation 13)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
@@ -20,6 +20,9 @@
 //            neumann_points_wall_only_active_set
 //   --collision  lsmps_params::collision.alpha1: the opt-in collision stage's contact distance in L_ij (default 0:
 //            off; docs/lsmps_scheme.md deviation 17)
+//   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
+//   --lid    a closed vessel of that height in mm (tanaka_dam_break_config::closed_top; 0 or default: open, 300 mm walls,
+//            over which the far-wall run-up throws particles after t ≈ 0.35 s, T ≈ 4.9)
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with
@@ -55,13 +58,13 @@ namespace fs = std::filesystem;
 using namespace mpskit;
 
 int main(int argc, char** argv) {
-  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = 0.0;
-  bool trace = false;
+  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = 0.0, lid_mm = 0.0;
+  bool trace = false, collide_isolated = false;
   bool obstacle = false;
   std::string walls_name = "two_point_wall_only_active_set", data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--obstacle] [--full] [--trace U] "
-                         "[--out DIR] [--data DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--collide-isolated] [--lid mm] "
+                         "[--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -69,6 +72,7 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
+    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = true;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
       // switch the stage off); the ranges are checked below.
@@ -78,6 +82,7 @@ int main(int argc, char** argv) {
         else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("tanaka_dam_break: --T");
         else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
         else if (!std::strcmp(argv[a], "--collision") && has_value) collision = number("tanaka_dam_break: --collision");
+        else if (!std::strcmp(argv[a], "--lid") && has_value) lid_mm = number("tanaka_dam_break: --lid");
         else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = number("tanaka_dam_break: --trace");
         else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
         else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
@@ -95,8 +100,14 @@ int main(int argc, char** argv) {
       fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
     regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
+    if (collide_isolated && collision == 0.0)
+      fail("tanaka_dam_break: --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
     cases::tanaka_dam_break_config cfg = obstacle ? cases::tanaka_obstacle_config(1e-3 * L_mm) : cases::tanaka_dam_break_config{};
     cfg.L = 1e-3 * L_mm;
+    if (lid_mm != 0.0) {  // cfg.validate() checks it against the column (a lid at or below the water is refused)
+      cfg.vessel_height = 1e-3 * lid_mm;
+      cfg.closed_top = true;
+    }
     cfg.validate();
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg);
     const vec<2> probe = obstacle ? db.obstacle_probe() : db.probe();
@@ -142,6 +153,7 @@ int main(int argc, char** argv) {
     scheme::lsmps_params<2> p;
     walls.apply(p);
     p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
+    p.collision.isolated = collide_isolated;
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
                 "walls '%s', to T = %g\n",
                 obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(), T_end);

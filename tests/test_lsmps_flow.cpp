@@ -366,6 +366,41 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(st.x()(0, drop) == x0[0]);
     CHECK(sim.counters().isolated >= 50);
   }
+  TEST_CASE("isolated droplets collide only with collision.isolated (seed 001 eq. 13, restitution alpha2)") {
+    // Two droplets of the case above, 0.45 L apart side by side, meeting head-on at ±1 m/s: both isolated (c < α_c).
+    // By default the collision stage leaves isolated particles alone (they move ballistically): u_x stays ±1 m/s.
+    // With collision.isolated the pair is in contact (0.45 L < α1 L = 0.5 L) and approaching, and eq. 13 with equal
+    // volumes (share 1/2) turns ±1 into ∓α2 = ∓0.2 m/s; gravity acts along y, across the pair, and changes nothing
+    // of u_x. Σ V u_x stays 0 either way.
+    const cases::polygon_tank_config tc = tall_box_config();
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    const auto run = [&](bool isolated) {
+      scheme::lsmps_state<2> s0(tank.size() + 2);
+      s0.x().leftCols(tank.size()) = tank.x;
+      s0.u().setZero();
+      s0.x().col(tank.size()) = vec<2>(0.1, 0.3);
+      s0.x().col(tank.size() + 1) = vec<2>(0.1 + 0.45 * tc.L, 0.3);
+      s0.u().col(tank.size()) = vec<2>(1.0, 0.0);
+      s0.u().col(tank.size() + 1) = vec<2>(-1.0, 0.0);
+      s0.get<field::volume>().setConstant(tc.L * tc.L);
+      scheme::lsmps_params<2> p;
+      p.time.mode = scheme::time_step_mode::fixed;
+      p.time.dt_fixed = 1e-3;
+      p.collision.alpha1 = 0.5;
+      p.collision.isolated = isolated;
+      simulation<lsmps_defaults<2>> sim(p, std::move(s0), &tank.walls);
+      sim.step();
+      const auto& st = sim.state();
+      for (index_t i = tank.size(); i < tank.size() + 2; ++i)
+        REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::isolated) != 0);
+      return std::array<double, 2>{st.u()(0, tank.size()), st.u()(0, tank.size() + 1)};
+    };
+    const std::array<double, 2> ballistic = run(false), bounced = run(true);
+    CHECK(ballistic[0] == 1.0);
+    CHECK(ballistic[1] == -1.0);
+    CHECK(bounced[0] == doctest::Approx(-0.2).epsilon(1e-12));
+    CHECK(bounced[1] == doctest::Approx(0.2).epsilon(1e-12));
+  }
   TEST_CASE("the blow-up bound (time_step_params::max_speed) stops a run at the step that starts above it") {
     // The lone droplet of the case above falls at g with Δt = 1e-3 s: |u| = k Δt |g| at the start of step k, so
     // with the bound at 0.2 m/s the first step to start above it is k = ceil(0.2 / (Δt |g|)) (21 with |g| = 9.81);
@@ -883,6 +918,27 @@ tanaka_run run_tanaka_dam_break(double T_end, const std::string& walls, double L
 }  // namespace
 
 TEST_SUITE("dam_break_lsmps") {
+  TEST_CASE("Tanaka's vessel with closed_top: the lid closes the chain, its normal into the vessel") {
+    // Open by default: three elements, and a point above the vessel is not behind any wall. closed_top adds the
+    // fourth element (right, top) -> (left, top); its left normal is -y (into the vessel), so the vessel's
+    // inside has signed distance > 0 and a point above the lid < 0, and a move across the lid is a crossing.
+    cases::tanaka_dam_break_config c;
+    c.L = 0.01;
+    const double H = c.vessel_height;
+    const vec<2> below(0.05, H - 0.02), above(0.05, H + 0.02);
+    const auto open = cases::make_tanaka_dam_break(c);
+    CHECK(open.walls.size() == 3);
+    CHECK(!open.walls.crosses(below, above));
+    c.closed_top = true;
+    const auto closed = cases::make_tanaka_dam_break(c);
+    REQUIRE(closed.walls.size() == 4);
+    CHECK(closed.walls.element_normal(3)[0] == doctest::Approx(0.0));
+    CHECK(closed.walls.element_normal(3)[1] == doctest::Approx(-1.0));
+    CHECK(closed.walls.signed_distance(below) == doctest::Approx(0.02));
+    CHECK(closed.walls.signed_distance(above) == doctest::Approx(-0.02));
+    CHECK(closed.walls.crosses(below, above));
+    CHECK(closed.size() == open.size());  // the same column
+  }
   TEST_CASE("measure_impact: a triangular pulse's arrival, impulse, peak, filtered peak and sparse peak") {
     // p = H (1 − |t − t0|/b) on |t − t0| < b, 0 elsewhere, dry (NaN) before t = 0.1 s, every 1e-5 s. The kinks sit
     // on samples, so the trapezoids integrate exactly: impulse H b; the 2 ms centred average at the apex is

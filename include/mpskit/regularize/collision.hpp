@@ -102,6 +102,10 @@ collision_report pair_collisions(E e, const points<D>& x, const points<D>& u, co
 struct sized_collision_params {
   double alpha1 = 0.0;  ///< contact distance in units of the pair-mean diameter L_ij = (L_i + L_j)/2; 0: off
   double alpha2 = 0.2;  ///< coefficient of restitution (seed 001's range [0, 0.2])
+  /// Read by the LSMPS stepper (lsmps_params::collision): isolated particles (c < α_c) and their wall copies take
+  /// part too (ours; false: they move ballistically, Tanaka §4.5.1 and issue #7 item 5, and pass through each other
+  /// and into the fluid they fall back on). The functions below take part through their predicates only.
+  bool isolated = false;
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("sized_collision_params");

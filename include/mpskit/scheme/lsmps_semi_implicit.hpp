@@ -942,10 +942,13 @@ class lsmps_semi_implicit {
 
   /// 9c. Seed 001 eq. 13 between the participating fluid particles and against their copies (wall velocity,
   /// immovable) on this step's list at x^k (the velocities are the corrected, filtered ones; the copies' u is the
-  /// wall's). Pressure-boundary particles take no part. Jacobi: every Δu from the same u.
+  /// wall's); the isolated ones too with collision.isolated. Pressure-boundary particles take no part. Jacobi:
+  /// every Δu from the same u.
   void collide(index_t n) {
-    const auto movable = [this, n](index_t i) { return i < n && !excluded_[static_cast<std::size_t>(i)]; };
-    const auto partner = [this](index_t j) { return j < nc_ && !excluded_[static_cast<std::size_t>(j)]; };
+    // excluded_ marks the isolated particles and their copies: in the stage only with collision.isolated.
+    const bool all = p_.collision.isolated;
+    const auto movable = [this, n, all](index_t i) { return i < n && (all || !excluded_[static_cast<std::size_t>(i)]); };
+    const auto partner = [this, all](index_t j) { return j < nc_ && (all || !excluded_[static_cast<std::size_t>(j)]); };
     const regularize::collision_report rep =
         regularize::sized_collisions(exec::par{}, s_.x(), s_.u(), L_, s_.template get<field::volume>(), nl_, partner,
                                      movable, p_.collision, collision_du_);
