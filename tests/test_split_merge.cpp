@@ -1854,6 +1854,57 @@ TEST_SUITE("dam_break_multires") {
   }
 }  // TEST_SUITE
 
+TEST_SUITE("multires_hard") {
+  TEST_CASE("2 s of Tanaka's dam break refined 2:1 toward the far corner, in a closed vessel (issue #9 hard case)") {
+    // Issue #9's hard case "2 s of the dam break" at a CI size: L = 10 mm (the column 10 x 20 particles), L* = 5 mm
+    // within 50 mm of (200, 0) mm, a linear ramp to 1.05 L at 150 mm (the dam_break_multires zone), to t = 2 s
+    // (T = 28): the far-wall impact, the run-up, the plunging return wave and the sloshing after it. What it takes
+    // (all opt-in; docs/resolution.md "Dam break with splitting"): the dam break's conditioned, limited wall options;
+    // the collision stage at alpha1 = 0.7 with isolated particles taking part (collision.isolated); and a lid,
+    // 600 mm up (closed_top): over the open 300 mm walls the run-up throws particles out of the vessel at
+    // t = 0.35 s, where they fall for ever and max |u| grows without bound (measured at 8 mm). Measured
+    // (2026-12-03): max |u| 3.59 sqrt(gH), min r_ij/L_ij 0.413 over all pairs (isolated ones included), c <= 1.21,
+    // no guard activation, 200 -> 327 particles, 12 701 steps. Asserted: the issue's bounds and no guard
+    // activation, the fine size reached, volume to rounding.
+    cases::tanaka_dam_break_config c;
+    c.L = 0.01;
+    c.vessel_height = 0.6;
+    c.closed_top = true;
+    scheme::lsmps_params<2> p;
+    cases::tanaka_wall_variant_named("two_point_wall_only_active_set_own_loop_copies_conditioned_limited", "test").apply(p);
+    p.collision.alpha1 = 0.7;
+    p.collision.isolated = true;
+    const vec<2> corner(c.vessel_right, 0.0);
+    const double L = c.L, Lf = 0.5 * c.L;
+    p.resolution.target_diameter = [=](const vec<2>& x) {
+      return Lf + std::clamp(((x - corner).norm() - 0.05) / 0.1, 0.0, 1.0) * (1.05 * L - Lf);
+    };
+    p.resolution.wall_contact = 0.75;
+    double umax = 0.0, cmax = 0.0;
+    const auto observe = [&](const auto& sim) {
+      const auto& st = sim.state();
+      for (index_t i = 0; i < st.n_real(); ++i) umax = std::max(umax, st.u().col(i).norm());
+      const auto& cp = sim.packing_ratio();
+      for (index_t i = 0; i < std::min<index_t>(st.n_real(), cp.size()); ++i) cmax = std::max(cmax, cp[i]);
+    };
+    const auto r = cases::run_tanaka_dam_break<tanaka_multires>(c, 28.0, p, false, observe);
+    const double sqrt_gh = std::sqrt(c.g * c.column_height);
+    std::printf("multires_hard dam break 2 s: particles %ld -> %ld, L_min %.2f mm, splits %ld merges %ld, volume change "
+                "%.1e, guard %ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f (T = %.2f), max c %.3f, collisions %ld, steps %ld, "
+                "%.1f s\n",
+                static_cast<long>(r.particles), static_cast<long>(r.particles_end), r.L_min * 1e3, r.splits, r.merges,
+                r.volume_change, r.guarded, umax / sqrt_gh, r.min_pair_ratio, r.T_min_pair, cmax, r.collisions, r.steps,
+                r.wall_seconds);
+    CHECK(umax <= 5.0 * sqrt_gh);      // the issue's explosion bound
+    CHECK(r.min_pair_ratio >= 0.3);    // the issue's clustering bound (every pair of real particles)
+    CHECK(cmax <= 2.0);                // the issue's packing bound
+    CHECK(r.guarded == 0);             // no particle crossed a wall
+    CHECK(r.splits > 100);             // the surge was refined at the far corner
+    CHECK(r.L_min <= Lf * (1.0 + 1e-12));
+    CHECK(std::abs(r.volume_change) <= 1e-13);
+  }
+}  // TEST_SUITE
+
 TEST_SUITE("restart") {
   TEST_CASE("restart: LSMPS 3D tank refining at a wall and the floor, 25 steps + save + 25 equals load + 25 bitwise") {
     // The 3D box of the multires_hard case (L = 12.5 mm, imaginary walls, split/merge to L/2 at the right wall and
