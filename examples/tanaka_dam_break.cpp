@@ -21,8 +21,8 @@
 //   --collision  lsmps_params::collision.alpha1: the opt-in collision stage's contact distance in L_ij (default 0:
 //            off; docs/lsmps_scheme.md deviation 17)
 //   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
-//   --lid    a closed vessel of that height in mm (tanaka_dam_break_config::closed_top; 0 or default: open, 300 mm walls,
-//            over which the far-wall run-up throws particles after t ≈ 0.35 s, T ≈ 4.9)
+//   --lid    a closed vessel of that height in mm (tanaka_dam_break_config::closed_top; 0 or default: open, 300 mm
+//            walls, 375 mm with --obstacle; over 300 mm the far-wall run-up throws particles out from t ≈ 0.37 s, T ≈ 5.1)
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
 //   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with

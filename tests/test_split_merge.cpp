@@ -1868,8 +1868,8 @@ TEST_SUITE("multires_hard") {
     // (T = 28): the far-wall impact, the run-up, the plunging return wave and the sloshing after it. What it takes
     // (all opt-in; docs/resolution.md "Dam break with splitting"): the dam break's conditioned, limited wall options;
     // the collision stage at alpha1 = 0.7 with isolated particles taking part (collision.isolated); and a lid,
-    // 600 mm up (closed_top): over the open 300 mm walls the run-up throws particles out of the vessel at
-    // t = 0.35 s, where they fall for ever and max |u| grows without bound (measured at 8 mm). Measured
+    // 600 mm up (closed_top): over the open 300 mm walls the run-up throws particles out of the vessel from
+    // t = 0.37 s, where they fall for ever and max |u| grows without bound (measured at 8 mm). Measured
     // (2026-12-03): max |u| 3.59 sqrt(gH), min r_ij/L_ij 0.413 over all pairs (isolated ones included), c <= 1.21,
     // no guard activation, 200 -> 327 particles, 12 701 steps. Asserted: the bounds and no guard
     // activation, the fine size reached, volume to rounding.

@@ -3,7 +3,8 @@
 // with polygon walls (issue #7, label dam_break_lsmps): vessel 400 mm wide, x ∈ [−200, 200] mm, bottom
 // at y = 0; water column 100 mm wide × 200 mm high against the left wall, x ∈ [−200, −100] mm.
 // The vessel height is not in the paper: the side walls are 300 mm tall (1.5 × the column) with an
-// open top (tanaka_dam_break_config::closed_top adds a lid, ours, for runs past the run-up at the far wall). Probe: pressure at (195 mm, 5 mm). Front: h = max x of the counted (non-isolated) fluid
+// open top (tanaka_dam_break_config::closed_top adds a lid, ours, for runs past the run-up at the far
+// wall). Probe: pressure at (195 mm, 5 mm). Front: h = max x of the counted (non-isolated) fluid
 // particles + L_i/2, measured from the left wall x = −200 mm; h* = h/h0 against t* = t √(2g/h0) with
 // h0 = 100 mm, the same (T, Z) as cases/dam_break.hpp (Z = front/a, T = t √(2g/a), front including
 // the half extent l0/2), so read_front_series and front_band there compare it with
@@ -36,7 +37,7 @@ struct tanaka_dam_break_config {
   double vessel_right = 0.2;      ///< right wall x (m)
   double vessel_height = 0.3;     ///< side-wall height (m; not in the paper, 1.5 × column height)
   /// A lid at vessel_height (ours; the paper's vessel is open). Over the open 300 mm walls the run-up at the far
-  /// wall throws particles out of the vessel after t ≈ 0.35 s, and a particle outside falls for ever (ballistic:
+  /// wall throws particles out of the vessel from t ≈ 0.37 s, and a particle outside falls for ever (ballistic:
   /// no floor there), so a run to 2 s (issue #9's hard case) needs a closed vessel.
   bool closed_top = false;
   double column_width = 0.1;      ///< h0 (m): the column spans [vessel_left, vessel_left + h0]
