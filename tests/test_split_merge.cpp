@@ -230,6 +230,28 @@ res::split_merge_params<D> banded_target() {
 }  // namespace
 
 TEST_SUITE("split_merge") {
+  TEST_CASE("cases: min_pair_ratios reads the clustering measure with and without isolated particles") {
+    // Issue #9's clustering measure r_ij / L_ij (L_ij the mean diameter): a pair 0.8 L apart, a pair 0.2 L apart of
+    // which one is flagged isolated, and a lone particle; diameters 2 mm and 4 mm in the second pair (L_ij = 3 mm).
+    const double l = 2e-3;
+    points<2> x(2, 5);
+    x << 0.0, 0.8 * l, 0.1, 0.1 + 0.2 * 1.5 * l, 0.5,  //
+        0.0, 0.0, 0.0, 0.0, 0.5;
+    auto s = make_state<2>(x, l * l);
+    s.get<field::volume>()[3] = 4.0 * l * l;
+    const search::domain<2> dom{};
+    cases::pair_ratios q = cases::min_pair_ratios(s, dom);
+    CHECK(q.all == doctest::Approx(0.2).epsilon(1e-12));
+    CHECK(q.non_isolated == doctest::Approx(0.2).epsilon(1e-12));
+    s.flags()[3] = flag::isolated;
+    q = cases::min_pair_ratios(s, dom);
+    CHECK(q.all == doctest::Approx(0.2).epsilon(1e-12));       // every pair: the isolated one counts
+    CHECK(q.non_isolated == doctest::Approx(0.8).epsilon(1e-12));  // spray left out
+    CHECK(cases::min_pair_ratio(s, dom) == q.all);
+    s.x().col(1) = vec<2>(0.3, 0.3);  // no non-isolated pair within 1.5 L_ij
+    CHECK(cases::min_pair_ratios(s, dom).non_isolated == 1e300);
+  }
+
 
   TEST_CASE("speed-up at equal error (issue #9 reporter): power-law interpolation, bounds, bad input") {
     using bench::cost_point;
@@ -1892,11 +1914,11 @@ TEST_SUITE("multires_hard") {
     const double umax = maxima.u, cmax = maxima.c;
     const double sqrt_gh = std::sqrt(c.g * c.column_height);
     std::printf("multires_hard dam break 2 s: particles %ld -> %ld, L_min %.2f mm, splits %ld merges %ld, volume change "
-                "%.1e, guard %ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f (T = %.2f), max c %.3f, collisions %ld, steps %ld, "
-                "%.1f s\n",
+                "%.1e, guard %ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f (T = %.2f; %.3f without isolated "
+                "particles), max c %.3f, collisions %ld, steps %ld, %.1f s\n",
                 static_cast<long>(r.particles), static_cast<long>(r.particles_end), r.L_min * 1e3, r.splits, r.merges,
-                r.volume_change, r.guarded, umax / sqrt_gh, r.min_pair_ratio, r.T_min_pair, cmax, r.collisions, r.steps,
-                r.wall_seconds);
+                r.volume_change, r.guarded, umax / sqrt_gh, r.min_pair_ratio, r.T_min_pair, r.min_pair_ratio_non_isolated,
+                cmax, r.collisions, r.steps, r.wall_seconds);
     CHECK(umax <= 5.0 * sqrt_gh);      // the issue's explosion bound
     CHECK(r.min_pair_ratio >= 0.3);    // the issue's clustering bound (every pair of real particles)
     CHECK(cmax <= 2.0);                // the issue's packing bound

@@ -32,6 +32,7 @@ struct tanaka_dam_break_result {
   double volume_change = 0.0;   ///< ΣV at the end / ΣV at the start − 1 (splits and merges conserve it)
   /// Smallest r_ij / L_ij of fluid pairs after any step (min_pair_ratio: clustering) and T when it occurred.
   double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
+  double min_pair_ratio_non_isolated = 1e300;  ///< the same over pairs without an isolated particle (spray left out)
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
   long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
   long filter_amplifying = 0, filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
@@ -210,11 +211,12 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       const auto& P = sim.state().template get<field::pressure>();
       for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
       for (index_t i = n; i < sim.state().size(); ++i) r.p_min_copies = std::min(r.p_min_copies, P[i]);
-      const double q = min_pair_ratio(sim.state(), p.domain);
-      if (q < r.min_pair_ratio) {
-        r.min_pair_ratio = q;
+      const pair_ratios q = min_pair_ratios(sim.state(), p.domain);
+      if (q.all < r.min_pair_ratio) {
+        r.min_pair_ratio = q.all;
         r.T_min_pair = db.t_star(sim.time());
       }
+      r.min_pair_ratio_non_isolated = std::min(r.min_pair_ratio_non_isolated, q.non_isolated);
       r.probe_t.push_back(sim.time());
       r.probe_p.push_back(probe_pressure(sim, db.probe(), c.L));
       const double T = db.t_star(sim.time());
