@@ -70,9 +70,12 @@ int run(int argc, char** argv) {
     ++a;
     return true;
   };
-  // --full first, wherever it stands, so that the options given with it override its values.
+  // --full first, wherever it stands, so that the options given with it override its values. --out's value is
+  // skipped (a directory may be called "--full"); a number option's value is not a number if it reads "--full",
+  // and the second pass refuses it.
   for (int a = 1; a < argc; ++a)
-    if (!std::strcmp(argv[a], "--full")) {
+    if (!std::strcmp(argv[a], "--out")) ++a;
+    else if (!std::strcmp(argv[a], "--full")) {
       c.L_min = 0.1e-3;
       c.r_fine = 4e-3;
       c.t_end = 0.4;
