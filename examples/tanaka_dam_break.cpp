@@ -9,7 +9,7 @@
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
 // Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--collide-isolated] [--lid mm]
-//                         [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
+//                         [--shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
 //   --L      particle diameter in mm (default 5: the spacing at which the default wall options get through
 //            the far-wall impact; docs/lsmps_scheme.md, deviation 13)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
@@ -21,6 +21,8 @@
 //   --collision  lsmps_params::collision.alpha1: the opt-in collision stage's contact distance in L_ij (default 0:
 //            off; docs/lsmps_scheme.md deviation 17)
 //   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
+//   --shift-isolated  lsmps_params::shift_isolated_penalty: isolated particles enter the others' shifting penalty
+//            (eq. 96; docs/lsmps_scheme.md deviation 18)
 //   --lid    a closed vessel of that height in mm (tanaka_dam_break_config::closed_top; 0 or default: open, 300 mm
 //            walls, 375 mm with --obstacle; over 300 mm the far-wall run-up throws particles out from t ≈ 0.37 s, T ≈ 5.1)
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
@@ -59,12 +61,12 @@ using namespace mpskit;
 
 int main(int argc, char** argv) {
   double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = 0.0, lid_mm = 0.0;
-  bool trace = false, collide_isolated = false;
+  bool trace = false, collide_isolated = false, shift_isolated = false;
   bool obstacle = false;
   std::string walls_name = "two_point_wall_only_active_set", data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--collide-isolated] [--lid mm] "
-                         "[--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
+                         "[--shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -73,6 +75,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
     else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = true;
+    else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
       // switch the stage off); the ranges are checked below.
@@ -154,6 +157,7 @@ int main(int argc, char** argv) {
     walls.apply(p);
     p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
     p.collision.isolated = collide_isolated;
+    p.shift_isolated_penalty = shift_isolated;
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
                 "walls '%s', to T = %g\n",
                 obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(), T_end);

@@ -92,9 +92,10 @@ struct shift_case {
   void build() { nl = build_list<D>(x, L, dom); }
   template <class E = exec::seq, class P = all_participate>
   regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {},
-                                      const points<D>* n_wall = nullptr, const points<D>* n_wall2 = nullptr) {
+                                      const points<D>* n_wall = nullptr, const points<D>* n_wall2 = nullptr,
+                                      const std::vector<std::uint8_t>* penalty_only = nullptr) {
     return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx, n_wall,
-                                                    n_wall2);
+                                                    n_wall2, penalty_only);
   }
 };
 
@@ -255,6 +256,45 @@ TEST_SUITE("tanaka_shift") {
     CHECK(r.limited == 2);
     CHECK((c.dx.col(0) + 0.01 * L0 * e).norm() <= 1e-15 * L0);
     CHECK((c.dx.col(1) - 0.01 * L0 * e).norm() <= 1e-15 * L0);
+  }
+
+  TEST_CASE("regularize: tanaka shift with penalty_only: an excluded particle enters eq. 96 only") {
+    // lsmps_params::shift_isolated_penalty (deviation 18): particle 1 does not participate (an isolated one) and
+    // sits 0.5 L from particle 0, particle 2 participates 2 L away on the other side. With penalty_only[1] set,
+    // particle 0's displacement is the one without particle 1 plus eq. 96's per-pair push away from it,
+    // −w ε L x_01/r (exact to rounding: eq. 100 is switched off); eq. 94 does not see particle 1.
+    const double ang = 0.37;
+    const vec<2> e(std::cos(ang), std::sin(ang));
+    points<2> x(2, 3);
+    x.col(0) = vec<2>(0.1, 0.2);
+    x.col(1) = x.col(0) + 0.5 * L0 * e;
+    x.col(2) = x.col(0) - 2.0 * L0 * e;
+    shift_case<2> c(x);
+    c.active[1] = 0;
+    c.build();
+    regularize::tanaka_shift_params p;
+    p.penalty = regularize::penalty_direction::pair;
+    p.alpha_S = 1e6;
+    const auto part = [](index_t j) { return j != 1; };
+    c.run(p, exec::seq{}, part);
+    const vec<2> without = c.dx.col(0);
+    CHECK(without.dot(e) > 0.0);  // eq. 94: particle 2 pushes 0 away from it (eq. 95 never pulls)
+    std::vector<std::uint8_t> only(3, 0);
+    only[1] = 1;
+    c.run(p, exec::seq{}, part, nullptr, nullptr, &only);
+    const double w = (0.5 / 3.1 - 1.0) * (0.5 / 3.1 - 1.0);  // eq. 29 at r = 0.5 L, R = 3.1 L
+    const double depth = (0.9 - 0.5) * L0;                    // eq. 97 × L_ij
+    CHECK((c.dx.col(0) - (without - w * depth * e)).norm() <= 1e-15 * L0);
+    CHECK(c.dx.col(1).isZero(0.0));  // inactive rows do not move
+    // A flag on a participating row changes nothing; a wrong length is refused.
+    only.assign(3, 1);
+    c.run(p, exec::seq{}, all_participate{}, nullptr, nullptr, &only);
+    const points<2> all = c.dx;
+    c.run(p, exec::seq{}, all_participate{});
+    CHECK((c.dx.array() == all.array()).all());
+    only.resize(2);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, part, nullptr, nullptr, &only), doctest::Contains("penalty_only"),
+                         mpskit::error);
   }
 
   TEST_CASE("regularize: tanaka shift of surface particles is tangential (eq. 99)") {

@@ -119,6 +119,9 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 ///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
 /// - n_wall2 (optional, ≥ m columns, unit or 0): the normal of a second wall the particle is copied onto (a 3D
 ///   edge or corner, a 2D corner); eq. 99 removes its component too (ours: Tanaka's eq. 99 has one normal).
+/// - penalty_only (optional, x.cols() entries): rows j with penalty_only[j] ≠ 0 that do not participate enter
+///   eq. 96's overlap penalty only (not eq. 94, not the weight sum): an isolated particle then keeps the others
+///   at (1 − α_p) L_ij without drawing them (ours, opt-in through lsmps_params::shift_isolated_penalty).
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
   requires std::predicate<const Participates&, index_t>
@@ -130,7 +133,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
                                               const std::vector<std::uint8_t>& active,
                                               const tanaka_shift_params& p, points<D>& dx,
                                               const points<D>* n_wall = nullptr,
-                                              const points<D>* n_wall2 = nullptr) {
+                                              const points<D>* n_wall2 = nullptr,
+                                              const std::vector<std::uint8_t>* penalty_only = nullptr) {
   p.validate();
   const index_t rows = x.cols();
   const index_t m = static_cast<index_t>(active.size());
@@ -144,6 +148,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   if (n_wall2 && !n_wall) fail("tanaka_shift: n_wall2 given without n_wall");
   if (n_wall2 && n_wall2->cols() < m)
     fail("tanaka_shift: n_wall2 has ", n_wall2->cols(), " columns, need >= active.size() = ", m);
+  if (penalty_only && static_cast<index_t>(penalty_only->size()) != rows)
+    fail("tanaka_shift: penalty_only has ", penalty_only->size(), " entries for ", rows, " positions");
   if (static_cast<index_t>(tangential_only.size()) < m)
     fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
   check_diameters("tanaka_shift", L, rows);
@@ -172,7 +178,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     const double wall_edge = p.projection == penalty_projection::wall_only ? 0.5 * (1.0 - p.alpha_p) * Li : 0.0;
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
-      if (!participates(j)) return;
+      const bool full = participates(j);
+      if (!full && !(penalty_only && (*penalty_only)[static_cast<std::size_t>(j)])) return;
       const double r = std::sqrt(r2);
       const double Lij = 0.5 * (Li + L[j]);   // averaged diameter (below eq. 94)
       const double Rij = p.re_ratio * Lij;    // R_ij = (R_i + R_j)/2 (eq. 28)
@@ -182,6 +189,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
         penalty += w * (pen_edge - r);  // eq. 97 times L_ij (see file comment)
         if (r2 > 0.0) (j >= m ? penalty_ghost : penalty_pair) -= (w * (pen_edge - r) / r) * xij;
       }
+      if (!full) return;  // penalty_only: out of eq. 94 and of the wall test
       if (j >= m && r < wall_edge && r2 > 0.0) penalty_wall -= (w * (wall_edge - r) / r) * xij;
       if (r2 == 0.0) {  // x_ji/|x_ji| undefined: out of eq. 94
         ++zero_pairs;
