@@ -18,7 +18,7 @@
 // and prints a one-screen summary: particle saving, wall time and front error against single resolution.
 //
 // Usage: multires_dam_break [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1]
-//                           [--no-single] [--full] [--out DIR]
+//                           [--collide-isolated] [--shift-isolated] [--no-single] [--full] [--out DIR]
 //   --L      coarse diameter in mm (default 5; the block is then two particles wide)
 //   --ratio  coarse / fine diameter (default 2: 2.5 mm at the block, the finest spacing at which the single-
 //            resolution reference runs over the block; at 2 mm it fails in the block impact, T ≈ 1.5)
@@ -32,6 +32,9 @@
 //            conditioned_limited and --collision 0.5 the 5 / 2.5 mm and 5 mm runs get through the far-wall impact
 //            to t = 0.4 s (T = 5.6), but the 2.5 mm one fails at the block (T = 1.99; docs/validation.md "Dam
 //            break with the obstacle")
+//   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
+//   --shift-isolated  lsmps_params::shift_isolated_penalty: isolated particles enter the others' shifting penalty
+//            (eq. 96; docs/lsmps_scheme.md deviation 18)
 //   --no-single the multi-resolution run alone
 //   --full   the paper's sizes: L = 5 mm, ratio 5 (1 mm at the block), the single-resolution reference at 1 mm
 //            (24 969 particles in the paper); hours on two cores, and not expected to get through yet
@@ -79,11 +82,11 @@ std::string fmt_mm(double L) {
 
 int main(int argc, char** argv) {
   double L_mm = 5.0, ratio = 2.0, T_end = 2.4, r0_mm = 30.0, r1_mm = 60.0, collision = 0.0;
-  bool single = true;
+  bool single = true, collide_isolated = false, shift_isolated = false;
   std::string out = "out/multires_dam_break", walls = cases::obstacle_walls;
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--no-single] "
-                 "[--full] [--out DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--collide-isolated] "
+                 "[--shift-isolated] [--no-single] [--full] [--out DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -91,6 +94,8 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 5.0, ratio = 5.0;
     else if (!std::strcmp(argv[a], "--no-single")) single = false;
+    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = true;
+    else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--r0 abc` is refused, not read as 0); ranges below.
       const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
@@ -117,6 +122,8 @@ int main(int argc, char** argv) {
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail(who, ": --T ", T_end, ": must be > 0");
     cases::tanaka_wall_variant_named(walls, "multires_dam_break --walls");  // refused here, before any run
     regularize::sized_collision_params{.alpha1 = collision}.validate();     // --collision, also before any run
+    if (collide_isolated && collision == 0.0)
+      fail(who, ": --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
     const double L = 1e-3 * L_mm, Lf = L / ratio;
     const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
     const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);
@@ -127,9 +134,10 @@ int main(int argc, char** argv) {
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "multires_dam_break");
     std::printf("mpskit: Tanaka's dam break with the 10 x 10 mm obstacle (Tanaka 2018 sec. 5.6.2), LSMPS scheme, walls '%s', "
-                "collision alpha1 %g, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
+                "collision alpha1 %g%s%s, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
                 "single resolution at %g and %g mm%s\n",
-                walls.c_str(), collision, T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
+                walls.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
+                shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
                 single ? "" : " skipped (--no-single)");
 
     std::vector<run_record> runs;
@@ -169,6 +177,8 @@ int main(int argc, char** argv) {
 
     scheme::lsmps_params<2> p = cases::obstacle_params(walls);
     p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
+    p.collision.isolated = collide_isolated;
+    p.shift_isolated_penalty = shift_isolated;
     scheme::lsmps_params<2> pm = p;
     cases::refine_around_block(pm, cfg_coarse, ratio, 1e-3 * r0_mm, 1e-3 * r1_mm);
     run.operator()<cases::obstacle_multires_scene>("multi", cfg_coarse, pm, true);
