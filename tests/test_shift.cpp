@@ -295,6 +295,18 @@ TEST_SUITE("tanaka_shift") {
     only.resize(2);
     CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, part, nullptr, nullptr, &only), doctest::Contains("penalty_only"),
                          mpskit::error);
+    // The printed direction −∇c does not push i away from j: refused. A row beyond active.size() (a ghost) too.
+    only.assign(3, 0);
+    only[1] = 1;
+    p.penalty = regularize::penalty_direction::concentration_gradient;
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, part, nullptr, nullptr, &only),
+                         doctest::Contains("penalty_only needs penalty_direction::pair"), mpskit::error);
+    p.penalty = regularize::penalty_direction::pair;
+    c.active.resize(2);
+    only.assign(3, 0);
+    only[2] = 1;
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, part, nullptr, nullptr, &only),
+                         doctest::Contains("penalty_only is set at row 2"), mpskit::error);
   }
 
   TEST_CASE("regularize: tanaka shift of surface particles is tangential (eq. 99)") {

@@ -119,9 +119,12 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 ///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
 /// - n_wall2 (optional, ≥ m columns, unit or 0): the normal of a second wall the particle is copied onto (a 3D
 ///   edge or corner, a 2D corner); eq. 99 removes its component too (ours: Tanaka's eq. 99 has one normal).
-/// - penalty_only (optional, x.cols() entries): rows j with penalty_only[j] ≠ 0 that do not participate enter
-///   eq. 96's overlap penalty only (not eq. 94, not the weight sum): an isolated particle then keeps the others
-///   at (1 − α_p) L_ij without drawing them (ours, opt-in through lsmps_params::shift_isolated_penalty).
+/// - penalty_only (optional, x.cols() entries, set only below active.size(): real particles): rows j with
+///   penalty_only[j] ≠ 0 that do not participate enter eq. 96's per-pair overlap penalty only (not eq. 94, not the
+///   weight sum), so an isolated particle pushes i away when r_ij < (1 − α_p) L_ij (after eqs. 99–100, like every
+///   pair term) and never draws it (ours, opt-in through lsmps_params::shift_isolated_penalty). Needs
+///   penalty_direction::pair: the printed direction −⟨∇c⟩ ignores where j is, and near the surface it points at the
+///   spray.
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
   requires std::predicate<const Participates&, index_t>
@@ -148,8 +151,17 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   if (n_wall2 && !n_wall) fail("tanaka_shift: n_wall2 given without n_wall");
   if (n_wall2 && n_wall2->cols() < m)
     fail("tanaka_shift: n_wall2 has ", n_wall2->cols(), " columns, need >= active.size() = ", m);
-  if (penalty_only && static_cast<index_t>(penalty_only->size()) != rows)
-    fail("tanaka_shift: penalty_only has ", penalty_only->size(), " entries for ", rows, " positions");
+  if (penalty_only) {
+    if (static_cast<index_t>(penalty_only->size()) != rows)
+      fail("tanaka_shift: penalty_only has ", penalty_only->size(), " entries for ", rows, " positions");
+    if (p.penalty != penalty_direction::pair)
+      fail("tanaka_shift: penalty_only needs penalty_direction::pair (the printed direction -grad c does not push "
+           "i away from j)");
+    for (index_t j = m; j < rows; ++j)
+      if ((*penalty_only)[static_cast<std::size_t>(j)])
+        fail("tanaka_shift: penalty_only is set at row ", j, " >= active.size() = ", m,
+             " (accepted: real particles only; rows beyond are ghosts, e.g. wall copies)");
+  }
   if (static_cast<index_t>(tangential_only.size()) < m)
     fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
   check_diameters("tanaka_shift", L, rows);

@@ -225,10 +225,13 @@ struct lsmps_params {
   /// point (ours, opt-in; docs/lsmps_scheme.md "The shifted velocity's limiter"). Counted
   /// (lsmps_counters::shift_velocity_clipped). Off: Tanaka's eq. 91, every earlier result unchanged.
   bool shift_velocity_limit = false;
-  /// Isolated particles (c < α_c) enter the others' overlap penalty of eq. 96 (per pair, pushing i off them),
-  /// not eq. 94 (ours, opt-in; docs/lsmps_scheme.md deviation 18). Issue #7 item 5 leaves them out of the
-  /// shifting; then a run-up film particle was shifted onto an isolated one riding up the wall beside it
-  /// (Tanaka's dam break refined 4/2 mm, min r_ij/L_ij 0.006 at T ≈ 20). Off: every earlier result unchanged.
+  /// Isolated particles (c < α_c) enter the others' overlap penalty of eq. 96 (per pair, pushing i off them,
+  /// after eqs. 99–100), not eq. 94 (ours, opt-in; docs/lsmps_scheme.md deviation 18; needs shift.penalty = pair,
+  /// the default). Issue #7 item 5 leaves them out of the shifting; then surface particles of the run-up film were
+  /// shifted onto isolated ones riding up beside them (Tanaka's dam break refined 4/2 mm, 4 mm particles: r_ij/L_ij
+  /// 0.039 at T = 3.98, 0.006 at T = 8.25). Measured with shift.projection = wall_only (the dam-break wall
+  /// variants); with eq. 99 as printed a surface particle keeps no push along its normal. Off: every earlier
+  /// result unchanged.
   bool shift_isolated_penalty = false;
   /// ε of the velocity filter in the one-sided band (particles with a wall copy, a pressure-boundary or a
   /// free-surface particle among their neighbours, or a neighbour of another size beyond size_ratio; a
@@ -295,6 +298,9 @@ struct lsmps_params {
     v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::neumann_points),
               "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not neumann_points "
               "(the nested rows read the copies' parents' gradients, which have no Neumann points)");
+    v.require(!(shift_isolated_penalty && shift.penalty != regularize::penalty_direction::pair),
+              "shift_isolated_penalty", "needs shift.penalty = penalty_direction::pair (the printed direction "
+              "-grad c does not push a particle away from an isolated one)");
     v.require(!(active_set_copies && active_set_solves == 0), "active_set_copies",
               "needs active_set_solves > 0 (the copies join the active set's repeated solves)");
     v.require(!(active_set_copies && copy_row == copy_row_kind::neumann_points), "active_set_copies",
