@@ -130,6 +130,7 @@ int main(int argc, char** argv) {
     cfg_coarse.validate();
     cfg_fine.validate();
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg_coarse);
+    const double sqrt_gH = std::sqrt(cfg_coarse.g * cfg_coarse.column_height);  // issue #9's speed scale
 
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "multires_dam_break");
@@ -212,13 +213,14 @@ int main(int argc, char** argv) {
                          {{"run", "1"}, {"L", "mm"}, {"L_min", "mm"}, {"T_reached", "1"}, {"failed", "1"},
                           {"particles_start", "1"}, {"particles_mean", "1"}, {"particles_end", "1"}, {"splits", "1"},
                           {"merges", "1"}, {"steps", "1"}, {"wall", "s"}, {"front_rms", "1"}, {"front_max", "1"},
-                          {"T_compared", "1"}, {"guard", "1"}, {"closest_pair", "L"}},
+                          {"T_compared", "1"}, {"guard", "1"}, {"closest_pair", "L"}, {"max_u", "sqrt(gH)"}},
                          io::csv_mode::truncate, {order, "front_rms, front_max: |h/h0 / (h/h0 of fine) - 1| over the common samples"});
       for (std::size_t k = 0; k < runs.size(); ++k) {
         const run_record& rr = runs[k];
         csv.row({double(k), rr.L * 1e3, rr.r.L_min * 1e3, rr.T_reached(), rr.r.failed ? 1.0 : 0.0, double(rr.r.particles),
                  rr.mean_particles, double(rr.r.particles_end), double(rr.r.splits), double(rr.r.merges), double(rr.r.steps),
-                 rr.r.wall_seconds, rr.front.rms, rr.front.max, rr.front.T_last, double(rr.r.guarded), rr.r.min_pair_ratio});
+                 rr.r.wall_seconds, rr.front.rms, rr.front.max, rr.front.T_last, double(rr.r.guarded), rr.r.min_pair_ratio,
+                 rr.r.u_max / sqrt_gH});
       }
     }
     const std::string gp = (fs::path(out) / "plot.gp").string();
@@ -242,17 +244,19 @@ int main(int argc, char** argv) {
     const bool pictures = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str()) == 0;
 
     std::printf("\nmpskit: multi-resolution dam break with the obstacle, to T = %g (docs/resolution.md)\n", T_end);
-    std::printf("  %-7s %5s %9s %8s %8s %8s %7s %7s %8s %7s  %s\n", "run", "L mm", "reached T", "part. 0", "mean", "end",
-                "splits", "merges", "wall s", "guard", "front vs fine (RMS / max, to T)");
+    std::printf("  %-7s %5s %9s %8s %8s %8s %7s %7s %8s %7s %7s %7s  %s\n", "run", "L mm", "reached T", "part. 0", "mean",
+                "end", "splits", "merges", "wall s", "guard", "pair L", "|u|max", "front vs fine (RMS / max, to T)");
     for (const run_record& rr : runs) {
-      std::printf("  %-7s %5.2f %9.3f %8ld %8.0f %8ld %7ld %7ld %8.1f %7ld  ", rr.name.c_str(), rr.L * 1e3, rr.T_reached(),
-                  static_cast<long>(rr.r.particles), rr.mean_particles, static_cast<long>(rr.r.particles_end), rr.r.splits,
-                  rr.r.merges, rr.r.wall_seconds, rr.r.guarded);
+      std::printf("  %-7s %5.2f %9.3f %8ld %8.0f %8ld %7ld %7ld %8.1f %7ld %7.3f %7.2f  ", rr.name.c_str(), rr.L * 1e3,
+                  rr.T_reached(), static_cast<long>(rr.r.particles), rr.mean_particles, static_cast<long>(rr.r.particles_end),
+                  rr.r.splits, rr.r.merges, rr.r.wall_seconds, rr.r.guarded, rr.r.min_pair_ratio, rr.r.u_max / sqrt_gH);
       if (rr.front.samples > 0)
         std::printf("%.2f %% / %.2f %% (%d samples to %.2f)\n", 100 * rr.front.rms, 100 * rr.front.max, rr.front.samples,
                     rr.front.T_last);
       else std::printf("-\n");
     }
+    std::printf("  (pair L: the closest pair r_ij/L_ij after any step; |u|max: the largest speed in sqrt(g H), H = %.0f mm; "
+                "issue #9's hard-case bounds are >= 0.3 and <= 5)\n", cfg_coarse.column_height * 1e3);
     for (const run_record& rr : runs)
       if (rr.r.failed) std::printf("  '%s' FAILED at T = %.3f: %s\n", rr.name.c_str(), rr.r.T_failed, rr.r.failure.c_str());
     if (single) {

@@ -218,9 +218,10 @@ int main(int argc, char** argv) {
                   inside, compared);
     std::printf("  lowest fluid pressure %.0f Pa = %.2f rho g H (issue #7: >= -1); copies (auxiliary unknowns) %.0f Pa\n",
                 r.p_min, r.p_min / r.rho_g_h, r.p_min_copies);
-    std::printf("  closest fluid pair %.3f L (at T = %.2f; %.3f L without isolated particles); wall-crossing guard "
-                "activations %ld; active-set rows %ld\n",
-                r.min_pair_ratio, r.T_min_pair, r.min_pair_ratio_non_isolated, r.guarded, r.active_set_rows);
+    std::printf("  closest fluid pair %.3f L (at T = %.2f; %.3f L without isolated particles); largest speed %.2f sqrt(gH) "
+                "(at T = %.2f); wall-crossing guard activations %ld; active-set rows %ld\n",
+                r.min_pair_ratio, r.T_min_pair, r.min_pair_ratio_non_isolated, r.u_max / std::sqrt(cfg.g * cfg.column_height),
+                r.T_u_max, r.guarded, r.active_set_rows);
     std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld (docs/run.md); shifted velocities clipped %ld; "
                 "colliding pairs %ld\n",
                 r.ppe_breakdown_restarts, r.shift_velocity_clipped, r.collisions);

@@ -33,6 +33,8 @@ struct tanaka_dam_break_result {
   /// Smallest r_ij / L_ij of fluid pairs after any step (min_pair_ratio: clustering) and T when it occurred.
   double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
   double min_pair_ratio_non_isolated = 1e300;  ///< the same over pairs without an isolated particle (spray left out)
+  /// Largest |u| of a real particle after any step (m/s) and T when it occurred (issue #9's explosion measure).
+  double u_max = 0.0, T_u_max = std::numeric_limits<double>::quiet_NaN();
   long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
   long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
   long filter_amplifying = 0, filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
@@ -210,6 +212,11 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       const index_t n = sim.state().n_real();
       const auto& P = sim.state().template get<field::pressure>();
       for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
+      const double u_step = n > 0 ? sim.state().u().leftCols(n).colwise().norm().maxCoeff() : 0.0;
+      if (u_step > r.u_max) {
+        r.u_max = u_step;
+        r.T_u_max = db.t_star(sim.time());
+      }
       for (index_t i = n; i < sim.state().size(); ++i) r.p_min_copies = std::min(r.p_min_copies, P[i]);
       const pair_ratios q = min_pair_ratios(sim.state(), p.domain);
       if (q.all < r.min_pair_ratio) {
