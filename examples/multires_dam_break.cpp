@@ -31,7 +31,8 @@
 //            docs/lsmps_scheme.md deviation 17); with --walls two_point_wall_only_active_set_own_loop_copies_-
 //            conditioned_limited and --collision 0.5 the 5 / 2.5 mm and 5 mm runs get through the far-wall impact
 //            to t = 0.4 s (T = 5.6), but the 2.5 mm one fails at the block (T = 1.99; docs/validation.md "Dam
-//            break with the obstacle")
+//            break with the obstacle"); with --collide-isolated --shift-isolated as well all three runs reach
+//            T = 5.6 with no guard activation (about 14 minutes; docs/resolution.md "The main example")
 //   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
 //   --shift-isolated  lsmps_params::shift_isolated_penalty: isolated particles enter the others' shifting penalty
 //            (eq. 96; docs/lsmps_scheme.md deviation 18)
