@@ -74,7 +74,7 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cas
   const double impulse_error = mr.complete && m.complete ? std::abs(m.impulse / mr.impulse - 1.0) : std::nan("");
   log << "    " << name << ": far-wall impulse " << m.impulse << " Pa s" << (m.complete ? "" : " (window incomplete)")
       << ", 2 ms peak " << m.peak_filtered << " Pa, guard activations " << r.guarded << ", closest pair "
-      << r.min_pair_ratio << " L\n";
+      << r.min_pair_ratio << " L, largest speed " << r.u_max << " m/s\n";
   bench::run_outcome out;
   out.particles = r.particles_end;
   out.steps = r.steps;
@@ -175,7 +175,7 @@ int main(int argc, char** argv) try {
             << ref.wall_seconds << " s, guard activations " << ref.guarded << "; far-wall probe (195, 5) mm wet at T = "
             << T_impact << " (fronts compared before it), impulse over 10 ms " << mref.impulse << " Pa s"
             << (mref.complete ? "" : " (window incomplete: no impulse error)") << ", 2 ms peak " << mref.peak_filtered
-            << " Pa\n";
+            << " Pa, closest pair " << ref.min_pair_ratio << " L, largest speed " << ref.u_max << " m/s\n";
 
   bench::reporter rep("Dam break with the obstacle, front against " + std::to_string(ref_mm).substr(0, 4) + " mm", reps);
   for (const double L : singles) {

@@ -13,7 +13,8 @@
 //   multires_dam_break.pvd + _*.vtu   ParaView series of the multi-resolution run every 0.25 in T = t √(2g/h0)
 //                                     (the field `volume` is the particle's area: diameter = √volume)
 //   front.csv     front h/h0 of the three runs every 0.05 in T (NaN after a run's end)
-//   runs.csv      per run: reached T, particles (start, mean over steps, end), events, steps, wall time, front error
+//   runs.csv      per run: reached T, particles (start, mean over steps, end), events, steps, wall time, front error,
+//                 guard activations, closest pair, largest speed (NaN for a run that made no step)
 //   particles.png (the multi-resolution run's last written state coloured by diameter), front.png
 // and prints a one-screen summary: particle saving, wall time and front error against single resolution.
 //
@@ -70,6 +71,10 @@ struct run_record {
   double mean_particles = 0.0;    ///< fluid particles averaged over the steps
   cases::front_difference front;  ///< against the fine run
   double T_reached() const { return r.failed ? r.T_failed : r.T.empty() ? 0.0 : r.T.back(); }
+  /// The closest pair (r_ij/L_ij) and the largest speed (in sqrt_gH) after any step; NaN when no step was made or
+  /// no pair came within 1.5 L_ij (min_pair_ratio's 1e300).
+  double pair() const { return r.steps > 0 && r.min_pair_ratio < 1e299 ? r.min_pair_ratio : std::nan(""); }
+  double speed(double sqrt_gH) const { return r.steps > 0 ? r.u_max / sqrt_gH : std::nan(""); }
 };
 
 /// A diameter in mm as %g prints it ("2.5").
@@ -220,8 +225,8 @@ int main(int argc, char** argv) {
         const run_record& rr = runs[k];
         csv.row({double(k), rr.L * 1e3, rr.r.L_min * 1e3, rr.T_reached(), rr.r.failed ? 1.0 : 0.0, double(rr.r.particles),
                  rr.mean_particles, double(rr.r.particles_end), double(rr.r.splits), double(rr.r.merges), double(rr.r.steps),
-                 rr.r.wall_seconds, rr.front.rms, rr.front.max, rr.front.T_last, double(rr.r.guarded), rr.r.min_pair_ratio,
-                 rr.r.u_max / sqrt_gH});
+                 rr.r.wall_seconds, rr.front.rms, rr.front.max, rr.front.T_last, double(rr.r.guarded), rr.pair(),
+                 rr.speed(sqrt_gH)});
       }
     }
     const std::string gp = (fs::path(out) / "plot.gp").string();
@@ -250,7 +255,7 @@ int main(int argc, char** argv) {
     for (const run_record& rr : runs) {
       std::printf("  %-7s %5.2f %9.3f %8ld %8.0f %8ld %7ld %7ld %8.1f %7ld %7.3f %7.2f  ", rr.name.c_str(), rr.L * 1e3,
                   rr.T_reached(), static_cast<long>(rr.r.particles), rr.mean_particles, static_cast<long>(rr.r.particles_end),
-                  rr.r.splits, rr.r.merges, rr.r.wall_seconds, rr.r.guarded, rr.r.min_pair_ratio, rr.r.u_max / sqrt_gH);
+                  rr.r.splits, rr.r.merges, rr.r.wall_seconds, rr.r.guarded, rr.pair(), rr.speed(sqrt_gH));
       if (rr.front.samples > 0)
         std::printf("%.2f %% / %.2f %% (%d samples to %.2f)\n", 100 * rr.front.rms, 100 * rr.front.max, rr.front.samples,
                     rr.front.T_last);
