@@ -12,16 +12,21 @@
 //   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_report_obstacle_multires --repetitions 3
 //
 // Options: --reference mm (default 2.5: the finest spacing whose single run gets over the block, docs/resolution.md),
-// --single L1,L2,... (mm, default 5,4,3.33), --multi L/ratio,... (default 5/2), --T T_end (default 2.4),
-// --repetitions R (default 3), --out DIR (default benchmarks/results), --walls NAME (a name of
-// cases::tanaka_wall_variants; default cases::obstacle_walls, the main example's), --collision ALPHA1 (the opt-in
-// collision stage, lsmps_params::collision; default 0, off), --collide-isolated 0|1 (collision.isolated; needs
-// --collision), --shift-isolated 0|1 (lsmps_params::shift_isolated_penalty, deviation 18). Results: obstacle_multires_speed_error.* and
-// obstacle_multires_speed_up.csv. The impulse needs a T_end past the reference's impact and its 10 ms window
-// (T ≳ 3.2); with the default 2.4 only the front is compared. The study asks for a 1 mm reference to
-// t = 0.4 s (T = 5.6); what was run is in docs/validation.md "Dam break with the obstacle". A configuration that
-// fails is recorded (not repeated; NaN metrics, `completed` 0, T reached) and the study goes on; a failed reference
-// stops it.
+// --single L1,L2,... (mm, default 5,4,3.33), --multi L/ratio,... (default 5/2), --T T_end (default 2.4), --repetitions
+// R (default 3), --out DIR (default benchmarks/results), --walls NAME (a name of cases::tanaka_wall_variants; default
+// cases::obstacle_walls, the main example's), --collision ALPHA1 (the opt-in collision stage, lsmps_params::collision;
+// default 0, off), --collide-isolated 0|1 (collision.isolated; needs --collision), --shift-isolated 0|1
+// (lsmps_params::shift_isolated_penalty, deviation 18), --series DIR (keep every run's front, far-wall probe and
+// counters in DIR/<run>.txt and reuse them: a run whose file exists is loaded, not computed, if the file's
+// configuration key (T_end, walls, options, threads, build) is this one's, else refused; the reference is the single
+// run of its spacing, so a reference computed once serves later studies, and `--single "" --multi ""` runs the
+// reference alone; a loaded run's wall time is the one measured when it was computed, so use --repetitions 1). Results:
+// obstacle_multires_speed_error.* and obstacle_multires_speed_up.csv. The impulse needs a T_end past the reference's
+// impact and its 10 ms window (T ≳ 3.2); with the default 2.4 only the front is compared. The study asks for a
+// 1 mm reference to t = 0.4 s (T = 5.6); what was run is in docs/validation.md "Dam break with the obstacle". A
+// configuration that fails is recorded (not repeated; NaN metrics, `completed` 0, T reached) and the study goes on; a
+// failed reference stops it.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -87,6 +92,112 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cas
   return out;
 }
 
+/// A run kept on disk (`--series DIR`): the series and counters the study reads from a tanaka_dam_break_result, so
+/// that an expensive run (the 1 mm reference: hours of one core) is computed once and reused by later studies with
+/// the same configuration. One text file per run: a `key` line (the run's configuration; a file whose key differs
+/// is refused, not overwritten), the counters, the failure text, the front samples (T, Z) and the far-wall probe
+/// (t, p; NaN while dry), numbers at 17 digits, so a loaded run gives the metrics of the computed one bitwise.
+class run_cache {
+ public:
+  explicit run_cache(std::string dir) : dir_(std::move(dir)) {}
+
+  /// The run under `file` (a name without spaces) with configuration `key`: loaded when DIR/file.txt exists (its
+  /// key must equal `key`), else computed by `compute` and saved. Without a directory: computed, not saved.
+  template <class F>
+  cases::tanaka_dam_break_result get(const std::string& file, const std::string& key, F&& compute,
+                                     std::ostream& log) const {
+    if (dir_.empty()) return compute();
+    const std::filesystem::path path = std::filesystem::path(dir_) / (file + ".txt");
+    if (std::filesystem::exists(path)) {
+      cases::tanaka_dam_break_result r = load(path, key);
+      log << "  " << file << ": loaded from " << path.string() << " (computed earlier: " << r.wall_seconds << " s)\n";
+      return r;
+    }
+    cases::tanaka_dam_break_result r = compute();
+    std::filesystem::create_directories(dir_);
+    save(path, key, r);
+    return r;
+  }
+
+ private:
+  static std::string one_line(std::string s) {
+    std::replace(s.begin(), s.end(), '\n', ' ');
+    return s;
+  }
+
+  static void save(const std::filesystem::path& path, const std::string& key, const cases::tanaka_dam_break_result& r) {
+    std::ofstream f(path);
+    f.precision(17);
+    f << "key " << key << "\ncounters " << r.particles << ' ' << r.particles_end << ' ' << r.steps << ' '
+      << r.wall_seconds << ' ' << r.ppe_iterations << ' ' << r.guarded << ' ' << r.min_pair_ratio << ' '
+      << r.u_max << ' ' << r.failed << ' ' << r.T_failed << "\nfailure " << one_line(r.failure) << "\nfront " << r.T.size() << "\n";
+    for (std::size_t k = 0; k < r.T.size(); ++k) f << r.T[k] << ' ' << r.Z[k] << '\n';
+    f << "probe " << r.probe_t.size() << "\n";
+    for (std::size_t k = 0; k < r.probe_t.size(); ++k) f << r.probe_t[k] << ' ' << r.probe_p[k] << '\n';
+    if (!f) fail("report_obstacle_multires: cannot write ", path.string());
+  }
+
+  // Numbers through strtod (istream's >> rejects "nan"); every field must be present and whole.
+  static cases::tanaka_dam_break_result load(const std::filesystem::path& path, const std::string& key) {
+    std::ifstream f(path);
+    const auto bad = [&](const char* what) {
+      fail("report_obstacle_multires: ", path.string(), ": ", what, " (not a file written by --series; remove it)");
+    };
+    std::string line;
+    if (!std::getline(f, line) || line.rfind("key ", 0) != 0) bad("no key line");
+    if (line.substr(4) != key)
+      fail("report_obstacle_multires: ", path.string(), " holds another configuration:\n  file: ", line.substr(4),
+           "\n  this: ", key, "\n(use another --series directory or remove the file)");
+    std::vector<double> v;
+    const auto numbers = [&](const std::string& text, std::size_t n) {
+      v.clear();
+      const char* s = text.c_str();
+      for (std::size_t k = 0; k < n; ++k) {
+        char* end = nullptr;
+        const double x = std::strtod(s, &end);
+        if (end == s) bad("a number is missing");
+        v.push_back(x);
+        s = end;
+      }
+      while (*s == ' ') ++s;
+      if (*s != '\0') bad("trailing text");
+    };
+    const auto section = [&](const char* name) {
+      const std::string head = std::string(name) + " ";
+      if (!std::getline(f, line) || line.rfind(head, 0) != 0) bad(name);
+      return line.substr(head.size());
+    };
+    cases::tanaka_dam_break_result r;
+    numbers(section("counters"), 10);
+    r.particles = static_cast<index_t>(v[0]);
+    r.particles_end = static_cast<index_t>(v[1]);
+    r.steps = static_cast<long>(v[2]);
+    r.wall_seconds = v[3];
+    r.ppe_iterations = static_cast<long>(v[4]);
+    r.guarded = static_cast<long>(v[5]);
+    r.min_pair_ratio = v[6];
+    r.u_max = v[7];
+    r.failed = v[8] != 0.0;
+    r.T_failed = v[9];
+    r.failure = section("failure");
+    const auto pairs = [&](const char* name, std::vector<double>& a, std::vector<double>& b) {
+      numbers(section(name), 1);
+      const std::size_t n = static_cast<std::size_t>(v[0]);
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!std::getline(f, line)) bad("a series is short");
+        numbers(line, 2);
+        a.push_back(v[0]);
+        b.push_back(v[1]);
+      }
+    };
+    pairs("front", r.T, r.Z);
+    pairs("probe", r.probe_t, r.probe_p);
+    return r;
+  }
+
+  std::string dir_;
+};
+
 /// The speed-up of every multi-resolution record at equal `metric` on the single-resolution records' curve.
 void speed_ups(const bench::reporter& rep, const char* metric, std::ostream& log, std::ostream& csv) {
   std::vector<bench::cost_point> curve;
@@ -128,13 +239,14 @@ int main(int argc, char** argv) try {
   std::vector<double> singles{5.0, 4.0, 10.0 / 3.0};
   std::vector<std::pair<double, double>> multis{{5.0, 2.0}};
   int reps = 3;
-  std::string out = "benchmarks/results", walls = cases::obstacle_walls;
+  std::string out = "benchmarks/results", walls = cases::obstacle_walls, series;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
     if (k == "--reference") ref_mm = number(v, "--reference");
     else if (k == "--T") T_end = number(v, "--T");
     else if (k == "--repetitions") reps = bench::parse_integer("--repetitions", v, 1);
     else if (k == "--out") out = v;
+    else if (k == "--series") series = v;
     else if (k == "--walls") walls = v;  // checked by obstacle_params below, before any run
     else if (k == "--collision") collision = bench::parse_number("--collision", v, 0.0);  // validated by the scheme
     else if (k == "--collide-isolated") collide_isolated = flag01("--collide-isolated", v);
@@ -151,7 +263,7 @@ int main(int argc, char** argv) try {
       }
     } else fail("report_obstacle_multires: unknown option '", k,
                 "' (--reference, --single, --multi, --T, --repetitions, --out, --walls, --collision, "
-                "--collide-isolated, --shift-isolated)");
+                "--collide-isolated, --shift-isolated, --series)");
   }
   if (argc % 2 == 0) fail("report_obstacle_multires: option '", argv[argc - 1], "' has no value");
   scheme::lsmps_params<2> p = cases::obstacle_params(walls);
@@ -165,8 +277,32 @@ int main(int argc, char** argv) try {
             << ref_mm << " mm, walls '" << walls << "', collision alpha1 " << collision
             << (collide_isolated ? " (isolated particles too)" : "")
             << (shift_isolated ? ", isolated particles in the shifting penalty" : "") << "\n";
+  // A run's configuration, the key of its --series file: everything that changes its result or its wall time.
+  const auto key = [&](const std::string& run) {
+    std::ostringstream k;
+    k.precision(17);
+    k << run << "; T " << T_end << "; walls " << walls << "; collision " << collision << " isolated "
+      << collide_isolated << "; shift_isolated " << shift_isolated << "; threads " << max_threads() << "; build " << MPSKIT_BENCH_FLAGS;
+    return k.str();
+  };
+  const auto file = [](const std::string& run) {  // "multi 5/2.5 mm" -> "multi_5_over_2.5_mm"
+    std::string f;
+    for (const char ch : run)
+      if (ch == '/') f += "_over_";
+      else if (ch != ' ') f += ch;
+      else if (!f.empty() && f.back() != '_') f += '_';
+    return f;
+  };
+  const run_cache cache(series);
+  const auto single_run = [&](double L_mm) {
+    std::ostringstream name;
+    name << "single " << L_mm << " mm";
+    return cache.get(file(name.str()), key(name.str()), [&] {
+      return cases::run_tanaka_dam_break(cases::tanaka_obstacle_config(1e-3 * L_mm), T_end, p, true);
+    }, std::cout);
+  };
   const cases::tanaka_dam_break_config ref_c = cases::tanaka_obstacle_config(1e-3 * ref_mm);
-  const cases::tanaka_dam_break_result ref = cases::run_tanaka_dam_break(ref_c, T_end, p, true);
+  const cases::tanaka_dam_break_result ref = single_run(ref_mm);
   if (ref.failed) fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ", ref.failure);
   const cases::impact_measures mref = far_wall_impact(ref);
   const double T_impact = std::isfinite(mref.t_arrival) ? cases::make_tanaka_dam_break(ref_c).t_star(mref.t_arrival)
@@ -181,22 +317,26 @@ int main(int argc, char** argv) try {
   for (const double L : singles) {
     std::ostringstream name;
     name << "single " << L << " mm";
-    rep.add({name.str(), "single", 1e-3 * L, [=, &ref, n = name.str()] {
-               return outcome_of(cases::run_tanaka_dam_break(cases::tanaka_obstacle_config(1e-3 * L), T_end, p, true), ref,
-                                 T_impact, T_end, n.c_str(), std::cout);
+    rep.add({name.str(), "single", 1e-3 * L, [=, &ref, &single_run, n = name.str()] {
+               return outcome_of(single_run(L), ref, T_impact, T_end, n.c_str(), std::cout);
              }});
   }
   for (const auto& [L, ratio] : multis) {
     std::ostringstream name;
     name << "multi " << L << "/" << L / ratio << " mm";
-    rep.add({name.str(), "multi", 1e-3 * L, [=, &ref, n = name.str()] {
-               const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L);
-               scheme::lsmps_params<2> pm = p;
-               cases::refine_around_block(pm, c, ratio, 0.03, 0.06);
-               return outcome_of(cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true), ref,
-                                 T_impact, T_end, n.c_str(), std::cout);
+    std::ostringstream what;  // the key: ratio and the refined region too
+    what.precision(17);
+    what << name.str() << " (ratio " << ratio << ", r0 0.03 m, r1 0.06 m)";
+    rep.add({name.str(), "multi", 1e-3 * L, [=, &ref, &cache, &key, &file, n = name.str(), w = what.str()] {
+               return outcome_of(cache.get(file(n), key(w), [&] {
+                 const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L);
+                 scheme::lsmps_params<2> pm = p;
+                 cases::refine_around_block(pm, c, ratio, 0.03, 0.06);
+                 return cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true);
+               }, std::cout), ref, T_impact, T_end, n.c_str(), std::cout);
              }});
   }
+  if (singles.empty() && multis.empty()) return 0;  // the reference alone (e.g. to fill --series)
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);
   const std::filesystem::path dir(out);
