@@ -844,6 +844,7 @@ void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_co
   for (long scheme::lsmps_counters::*f : scheme::lsmps_counter_fields) CHECK(a.*f == b.*f);
   CHECK(std::bit_cast<std::uint64_t>(a.inflow_volume) == std::bit_cast<std::uint64_t>(b.inflow_volume));
   CHECK(std::bit_cast<std::uint64_t>(a.outflow_volume) == std::bit_cast<std::uint64_t>(b.outflow_volume));
+  CHECK(std::bit_cast<std::uint64_t>(a.left_domain_volume) == std::bit_cast<std::uint64_t>(b.left_domain_volume));
 }
 }  // namespace
 
@@ -1010,7 +1011,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 36 values, or of 24 to 35 (older files), the missing ones read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 37 values, or of 24 to 36 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1019,11 +1020,14 @@ TEST_SUITE("restart") {
     io::add_simulation_sections(all, a);
     auto real = a.state();
     real.clear_ghosts();
-    // The file with its counters section replaced by `counters` (every other section as save_simulation writes it).
-    const auto write = [&](const std::string& name, const std::vector<std::int64_t>& counters) {
+    // The file with its counters section replaced by `counters` (every other section as save_simulation writes it,
+    // but the boundary volumes when `volumes` is given).
+    const auto write = [&](const std::string& name, const std::vector<std::int64_t>& counters,
+                           const std::vector<double>& volumes = {}) {
       io::checkpoint_sections s;
       for (const std::string& n : all.names()) {
         if (n == "lsmps.counters") s.add_int64s(n, counters);
+        else if (n == "lsmps.boundary_volumes" && !volumes.empty()) s.add_doubles(n, volumes);
         else if (n == "lsmps.ledger.flux_names") s.add_bytes(n, all.get_bytes(n));
         else if (n == "lsmps.time_step" || n == "lsmps.ledger.counts" || n == "lsmps.ledger.flux_particles")
           s.add_int64s(n, all.get_int64s(n));
@@ -1033,7 +1037,7 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 36);
+    REQUIRE(v.size() == 37);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
@@ -1045,10 +1049,15 @@ TEST_SUITE("restart") {
     v[32] = 17;  // ppe_breakdown_restarts
     v[33] = 18;  // collisions
     v[34] = 19;  // collision_coincident
-    v[35] = 20;  // shift_coincident, the last value
+    v[35] = 20;  // shift_coincident
+    v[36] = 21;  // left_domain, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("36.mpscp", v), b);
+    io::load_simulation(write("37.mpscp", v, {0.5, 0.25, 0.125}), b);
+    CHECK(b.counters().left_domain == 21);
+    CHECK(b.counters().inflow_volume == 0.5);
+    CHECK(b.counters().outflow_volume == 0.25);
+    CHECK(b.counters().left_domain_volume == 0.125);
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);
@@ -1063,6 +1072,12 @@ TEST_SUITE("restart") {
     CHECK(b.counters().shift_coincident == 20);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
+    md_sim b36(su.params, su.initial, &su.walls, &*su.boundary);  // before remove_outside: 36 counters, 2 volumes
+    io::load_simulation(write("36.mpscp", head(36), {0.5, 0.25}), b36);
+    CHECK(b36.counters().shift_coincident == 20);
+    CHECK(b36.counters().left_domain == 0);
+    CHECK(b36.counters().outflow_volume == 0.25);
+    CHECK(b36.counters().left_domain_volume == 0.0);
     md_sim b26(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("26.mpscp", head(26)), b26);
     CHECK(b26.counters().filter_tapered == 9);
@@ -1102,9 +1117,11 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 36"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 37"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("4v.mpscp", v, {0.5, 0.25, 0.125, 1.0}), e),
+                         doctest::Contains("'lsmps.boundary_volumes' holds 4 values, expected 3"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("37.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 37 values, expected 36"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("38.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 38 values, expected 37"), mpskit::error);
   }
 }

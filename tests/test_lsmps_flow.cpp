@@ -366,6 +366,74 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(st.x()(0, drop) == x0[0]);
     CHECK(sim.counters().isolated >= 50);
   }
+  TEST_CASE("lsmps_params::remove_outside removes a particle at the first step that starts outside the box") {
+    // The lone droplet of the case above, thrown up at 1 m/s from y = 0.3 m, moves ballistically; with the box's
+    // top at y = 0.32 m (the tank's water is below 0.05 m) it is removed at the start of the first step after its
+    // position, by the same arithmetic, is above 0.32 m, and counted. It was isolated and far from the tank's
+    // fluid, so the tank's particles must be bitwise those of the same run without the box (the removed particle
+    // is the last slot: nobody else moves in the state).
+    const cases::polygon_tank_config tc = tall_box_config();
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    const auto make = [&] {
+      scheme::lsmps_state<2> s0(tank.size() + 1);
+      s0.x().leftCols(tank.size()) = tank.x;
+      s0.x().col(tank.size()) = vec<2>(0.1, 0.3);
+      s0.u().setZero();
+      s0.u()(1, tank.size()) = 1.0;
+      s0.get<field::volume>().setConstant(tc.L * tc.L);
+      return s0;
+    };
+    scheme::lsmps_params<2> p;
+    p.time.mode = scheme::time_step_mode::fixed;
+    p.time.dt_fixed = 1e-3;
+    p.reorder_every = 0;
+    scheme::lsmps_params<2> pb = p;
+    pb.remove_outside.hi[1] = 0.32;
+    simulation<lsmps_defaults<2>> with_box(pb, make(), &tank.walls), without(p, make(), &tank.walls);
+    double y = 0.3, v = 1.0;
+    int k_out = -1;  // the step after which the droplet is above the box
+    for (int k = 0; k < 200 && k_out < 0; ++k) {
+      v += 1e-3 * p.g[1];
+      y += 1e-3 * v;
+      if (y > 0.32) k_out = k + 1;
+    }
+    REQUIRE(k_out > 0);
+    REQUIRE(y - 0.32 > 1e-6);  // far from the bound compared with rounding (the case above: 1e-12)
+    for (int k = 0; k < k_out + 3; ++k) {
+      with_box.step();
+      without.step();
+      // Steps 1..k_out start inside: kept; step k_out + 1 starts above the box: removed at its start.
+      CHECK(with_box.state().n_real() == tank.size() + (k + 1 <= k_out ? 1 : 0));
+    }
+    CHECK(with_box.counters().left_domain == 1);
+    CHECK(without.counters().left_domain == 0);
+    CHECK(without.state().x()(1, tank.size()) > 0.32);
+    for (index_t i = 0; i < tank.size(); ++i) {
+      CHECK(with_box.state().x().col(i) == without.state().x().col(i));
+      CHECK(with_box.state().u().col(i) == without.state().u().col(i));
+      CHECK(with_box.state().get<field::pressure>()[i] == without.state().get<field::pressure>()[i]);
+    }
+    // Refused: lo >= hi, NaN, a finite bound on a periodic axis.
+    scheme::lsmps_params<2> bad = p;
+    bad.remove_outside.hi[0] = -1.0;
+    bad.remove_outside.lo[0] = 1.0;
+    CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("axis 0: lo = 1, hi = -1"), mpskit::error);
+    bad = p;
+    bad.remove_outside.hi[1] = std::nan("");
+    CHECK_THROWS_AS(bad.validate(), mpskit::error);
+    bad = p;
+    bad.domain.periodic[0] = true;
+    bad.domain.lo = vec<2>(0.0, 0.0);
+    bad.domain.hi = vec<2>(1.0, 1.0);
+    CHECK_NOTHROW(bad.validate());
+    bad.remove_outside.hi[0] = 2.0;
+    CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("axis 0 is periodic"), mpskit::error);
+    // A box with every particle outside is an error, not an empty run.
+    scheme::lsmps_params<2> none = p;
+    none.remove_outside.lo[1] = 1.0;  // everything is below 1 m
+    simulation<lsmps_defaults<2>> empty(none, make(), &tank.walls);
+    CHECK_THROWS_WITH_AS(empty.step(), doctest::Contains("every particle"), mpskit::error);
+  }
   TEST_CASE("isolated droplets collide only with collision.isolated (seed 001 eq. 13, restitution alpha2)") {
     // Two droplets of the case above, 0.45 L apart side by side, meeting head-on at ±1 m/s: both isolated (c < α_c).
     // By default the collision stage leaves isolated particles alone (they move ballistically): u_x stays ±1 m/s.

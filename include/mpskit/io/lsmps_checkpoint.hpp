@@ -5,10 +5,11 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×36, lsmps_counters' integer counters in the order of
-///                               detail::lsmps_counter_values (older files hold 24 to 35, the missing ones
+///   `lsmps.counters`            int64 ×37, lsmps_counters' integer counters in the order of
+///                               detail::lsmps_counter_values (older files hold 24 to 36, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
-///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume}
+///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume, left_domain_volume} (older files: the
+///                               first two, the third read as 0)
 ///   `lsmps.time_step`           int64 {halvings, held, changes}
 ///   `lsmps.ledger.counts`       int64 {steps, splits, merges}         conservation_ledger totals
 ///   `lsmps.ledger.sums`         doubles {dV, dVu (D), dKE, dL (1 or 3), max volume ulps, max momentum ulps}
@@ -45,7 +46,8 @@ inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.
 /// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01)
 /// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
 /// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33, 2026-12-03) or
-/// collision_coincident and shift_coincident (34, 35, 2026-12-03): still read, the missing counters 0.
+/// collision_coincident and shift_coincident (34, 35, 2026-12-03) or left_domain (36, 2026-12-03): still read, the
+/// missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 
@@ -56,7 +58,7 @@ void add_simulation_sections(checkpoint_sections& s, const scheme::lsmps_semi_im
   s.add_doubles("lsmps.time", {sim.time(), sim.dt()});
   const scheme::lsmps_counters& c = sim.counters();
   s.add_int64s("lsmps.counters", detail::lsmps_counter_values(c));
-  s.add_doubles("lsmps.boundary_volumes", {c.inflow_volume, c.outflow_volume});
+  s.add_doubles("lsmps.boundary_volumes", {c.inflow_volume, c.outflow_volume, c.left_domain_volume});
   const scheme::time_step_state& ts = sim.time_step().state();
   s.add_int64s("lsmps.time_step", scheme::section_values(ts));
   const resolution::ledger_step<D>& t = sim.ledger().totals();
@@ -124,13 +126,16 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
          detail::lsmps_counter_count, " (or ", detail::lsmps_counter_count_min, " to ", detail::lsmps_counter_count - 1,
          " from older files)");
   const std::vector<double> bv = s.get_doubles("lsmps.boundary_volumes");
-  expect("lsmps.boundary_volumes", bv.size(), 2);
+  if (bv.size() != 2 && bv.size() != 3)
+    fail("load_simulation: '", file, "': section 'lsmps.boundary_volumes' holds ", bv.size(),
+         " values, expected 3 (or 2 from older files)");
   const std::vector<std::int64_t> tsv = s.get_int64s("lsmps.time_step");
   expect("lsmps.time_step", tsv.size(), 3);
   scheme::lsmps_counters c;
   for (std::size_t k = 0; k < cv.size(); ++k) c.*scheme::lsmps_counter_fields[k] = static_cast<long>(cv[k]);
   c.inflow_volume = bv[0];
   c.outflow_volume = bv[1];
+  c.left_domain_volume = bv.size() == 3 ? bv[2] : 0.0;
   const scheme::time_step_state ts = scheme::time_step_state_from(tsv);
 
   resolution::ledger_step<D> t;

@@ -196,6 +196,30 @@ struct own_loop_guard_params {
   }
 };
 
+/// An axis-aligned box [lo, hi] outside which particles are removed (lsmps_params::remove_outside); ±inf bounds:
+/// that side is open. The default removes nothing.
+template <int D>
+struct removal_box {
+  vec<D> lo = vec<D>::Constant(-std::numeric_limits<double>::infinity());  ///< lower corner (m)
+  vec<D> hi = vec<D>::Constant(std::numeric_limits<double>::infinity());   ///< upper corner (m)
+
+  /// True when some bound is finite (the stepper then tests every particle).
+  bool any() const { return (lo.array().isFinite() || hi.array().isFinite()).any(); }
+  /// True when x lies in [lo, hi] on every axis (on the boundary counts as inside).
+  bool contains(const vec<D>& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
+  /// Throws mpskit::error on NaN bounds, lo ≥ hi, or a finite bound on a periodic axis of `domain`.
+  void validate(const search::domain<D>& domain) const {
+    validator v("lsmps_params::remove_outside");
+    for (int a = 0; a < D; ++a) {
+      v.require(!std::isnan(lo[a]) && !std::isnan(hi[a]) && lo[a] < hi[a], "lo, hi",
+                mpskit::detail::concat("axis ", a, ": lo = ", lo[a], ", hi = ", hi[a], ": need lo < hi (±inf: open)"));
+      v.require(!(domain.periodic[a] && (std::isfinite(lo[a]) || std::isfinite(hi[a]))), "lo, hi",
+                mpskit::detail::concat("axis ", a, " is periodic (domain.periodic): its bounds must be ±inf"));
+    }
+    v.throw_if_any();
+  }
+};
+
 /// Runtime numbers of the LSMPS scheme, with Tanaka 2018's defaults (Table 2).
 template <int D>
 struct lsmps_params {
@@ -276,6 +300,12 @@ struct lsmps_params {
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
   search::domain<D> domain{};           ///< periodic axes
+  /// Real particles whose centre lies outside [lo, hi] on some axis at the start of a step are removed then,
+  /// counted (lsmps_counters::left_domain) and, with Scene::resolution = split_merge, entered in the volume
+  /// ledger as the flux "left_domain" (ours; the paper says nothing of fluid leaving an open vessel). The default
+  /// ±inf removes nothing and costs one test per particle-step only when a bound is finite. Refused: NaN, lo ≥ hi,
+  /// a finite bound on a periodic axis (the wrap keeps particles in the period box there).
+  removal_box<D> remove_outside{};
   double skin = 0.2;                    ///< list skin (fraction of the build radius)
   int reorder_every = 25;               ///< steps between cell reorders (0: never)
   /// Split/merge numbers and L* (used, and validated by the stepper, only when Scene::resolution is split_merge).
@@ -321,6 +351,7 @@ struct lsmps_params {
     time.validate();
     solver.validate();
     domain.validate();
+    remove_outside.validate(domain);
   }
 };
 
@@ -364,14 +395,16 @@ struct lsmps_counters {
   long outflow_behind = 0;         ///< particles removed behind a pressure face (a deviation, docs/channel.md)
   long filter_amplifying = 0;      ///< particle-steps of the band left unfiltered: Σ|w| of their fit > boundary_filter_params::max_amplification
   long filter_tapered = 0;         ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| > boundary_filter_params::taper_amplification
+  long left_domain = 0;            ///< particles removed outside lsmps_params::remove_outside (counted at removal)
   double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
   double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
+  double left_domain_volume = 0.0; ///< Σ V removed outside lsmps_params::remove_outside (m^D)
 };
 
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
 /// the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 36> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 37> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -383,9 +416,10 @@ inline constexpr std::array<long lsmps_counters::*, 36> lsmps_counter_fields{
     &lsmps_counters::filter_tapered, &lsmps_counters::own_loop_checked, &lsmps_counters::own_loop_dirichlet,
     &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
     &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
-    &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident};
+    &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident,
+    &lsmps_counters::left_domain};
 // A counter added to lsmps_counters without a place in the list above fails here.
-static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 2 * sizeof(double));
+static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 3 * sizeof(double));
 
 /// Particle state of the LSMPS scheme: core fields + pressure + volume (V = L^D, Tanaka eq. 26; copies
 /// have their own diameter, eq. 76, so sizes are per particle even at single resolution).
@@ -481,9 +515,9 @@ class lsmps_semi_implicit {
     for (long lsmps_counters::*f : lsmps_counter_fields)
       if (c.*f < 0) fail("lsmps_semi_implicit::restore: a counter is negative (", c.*f, ")");
     if (!(std::isfinite(c.inflow_volume) && c.inflow_volume >= 0.0 && std::isfinite(c.outflow_volume) &&
-          c.outflow_volume >= 0.0))
-      fail("lsmps_semi_implicit::restore: boundary volumes ", c.inflow_volume, ", ", c.outflow_volume,
-           " must be finite and >= 0");
+          c.outflow_volume >= 0.0 && std::isfinite(c.left_domain_volume) && c.left_domain_volume >= 0.0))
+      fail("lsmps_semi_implicit::restore: boundary volumes ", c.inflow_volume, ", ", c.outflow_volume, ", ",
+           c.left_domain_volume, " must be finite and >= 0");
     if (ts.halvings < 0 || ts.halvings > dt_ctrl_.max_rungs() || ts.held < 0 || ts.changes < 0)
       fail("lsmps_semi_implicit::restore: time-step state {", ts.halvings, ", ", ts.held, ", ", ts.changes,
            "} out of range (rungs in [0, ", dt_ctrl_.max_rungs(), "], counts >= 0)");
@@ -536,6 +570,7 @@ class lsmps_semi_implicit {
   /// Advances one step.
   void step() {
     s_.clear_ghosts();
+    if (p_.remove_outside.any()) remove_outside();
     const index_t n = s_.n_real();
     // 1. Δt: Courant α_C min L / max |u| over fluid (a deviation, the default), or eq. 64 as written,
     //    min_i α_C L_i/|u_i| (time_step_params::per_particle_courant); the same at single resolution. The viscous
@@ -904,6 +939,33 @@ class lsmps_semi_implicit {
     pb_->find_inflow(s_.x(), s_.u(), L_, n, nc_, ub, nl_, plan.remove,
                      [&](index_t j) { return j < nc_ && participates(j); }, p_.op, plan.born);
     return plan;
+  }
+
+  /// lsmps_params::remove_outside: at the step's start (no ghosts), the real particles outside the box are
+  /// removed through the state's resize path; their volume and momentum go to the ledger as a flux. (Positions are
+  /// finite here: the constructor and restore() validate them and every step ends with check_finite().)
+  void remove_outside() {
+    const index_t n = s_.n_real();
+    std::vector<std::uint8_t> marks(static_cast<std::size_t>(n), 0);
+    index_t k = 0;
+    double volume = 0.0;
+    vec<D> momentum = vec<D>::Zero();
+    const auto& V = s_.template get<field::volume>();
+    for (index_t i = 0; i < n; ++i)
+      if (!p_.remove_outside.contains(s_.x().col(i))) {
+        marks[static_cast<std::size_t>(i)] = 1;
+        ++k;
+        volume += V[i];
+        momentum += V[i] * s_.u().col(i);
+      }
+    if (k == 0) return;
+    if (k == n)
+      fail("lsmps_semi_implicit: every particle (", n, ") lies outside lsmps_params::remove_outside at the start of "
+           "step ", c_.steps + 1, ": nothing left to simulate");
+    s_.remove(marks);
+    c_.left_domain += static_cast<long>(k);
+    c_.left_domain_volume += volume;
+    if constexpr (has_resolution) ledger_.add_flux("left_domain", -volume, -momentum, -k);
   }
 
   /// Carries removal marks through the resolution stage's resize (old_to_new). Marked particles were frozen
