@@ -37,9 +37,14 @@ struct tanaka_dam_break_config {
   double vessel_right = 0.2;      ///< right wall x (m)
   double vessel_height = 0.3;     ///< side-wall height (m; not in the paper, 1.5 × column height)
   /// A lid at vessel_height (ours; the paper's vessel is open). Over the open 300 mm walls the run-up at the far
-  /// wall throws particles out of the vessel from t ≈ 0.37 s, and a particle outside falls for ever (ballistic:
-  /// no floor there), so a run to 2 s (issue #9's hard case) needs a closed vessel.
+  /// wall throws particles out of the vessel from t ≈ 0.37 s; remove_outside (default) removes them, without it
+  /// they fall for ever outside (ballistic: no floor there) and a run to 2 s grows its largest speed without bound.
   bool closed_top = false;
+  /// Particles whose centre leaves the vessel's width, x outside [vessel_left, vessel_right] (over an open side
+  /// wall: nothing else can leave, the guard keeps them inside the walls), are removed at the next step's start and
+  /// counted (lsmps_params::remove_outside, ours; tanaka_dam_break_result::left_domain). false: they fall for
+  /// ever outside (no floor there; until 2026-12-03 the only behaviour).
+  bool remove_outside = true;
   double column_width = 0.1;      ///< h0 (m): the column spans [vessel_left, vessel_left + h0]
   double column_height = 0.2;     ///< column height (m)
   double rho = 1000.0;            ///< density (kg/m³)

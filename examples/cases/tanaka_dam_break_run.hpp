@@ -29,7 +29,9 @@ struct tanaka_dam_break_result {
   index_t particles_end = 0;    ///< fluid particles at the end (differs with splitting and merging)
   double L_min = 0.0;           ///< smallest particle diameter at the end (m; sqrt of the 2D volume)
   long splits = 0, merges = 0;  ///< resolution events (Scene::resolution = split_merge)
-  double volume_change = 0.0;   ///< ΣV at the end / ΣV at the start − 1 (splits and merges conserve it)
+  /// (ΣV at the end + ΣV removed over the side walls) / ΣV at the start − 1: the volume balance (splits and merges
+  /// conserve ΣV, the removal's volume is counted).
+  double volume_change = 0.0;
   /// Smallest r_ij / L_ij of fluid pairs after any step (min_pair_ratio: clustering) and T when it occurred.
   double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
   double min_pair_ratio_non_isolated = 1e300;  ///< the same over pairs without an isolated particle (spray left out)
@@ -45,6 +47,8 @@ struct tanaka_dam_break_result {
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
   long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   long collisions = 0;              ///< colliding pairs of the collision stage (lsmps_params::collision)
+  long left_domain = 0;             ///< particles removed over the side walls (tanaka_dam_break_config::remove_outside)
+  double left_domain_volume = 0.0;  ///< their ΣV (m²)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
@@ -178,12 +182,16 @@ inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config
   return s0;
 }
 /// The case's part of the scheme options: ν, g, Δt_max = α_C L / √(2 g H) (α_C = p.time.courant, Tanaka's 0.1 by
-/// default) and the blow-up bound max_speed = max_speed_factor √(g H).
+/// default), the blow-up bound max_speed = max_speed_factor √(g H) and the removal box (c.remove_outside).
 inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<2>& p) {
   p.nu = c.mu / c.rho;
   p.g << 0.0, -c.g;
   p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);
   p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
+  if (c.remove_outside) {
+    p.remove_outside.lo[0] = c.vessel_left;
+    p.remove_outside.hi[0] = c.vessel_right;
+  }
 }
 
 /// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); the case sets the rest
@@ -248,7 +256,9 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.L_min = std::sqrt(sim.state().template get<field::volume>().head(r.particles_end).minCoeff());
   r.splits = sim.counters().splits;
   r.merges = sim.counters().merges;
-  r.volume_change = volume() / V0 - 1.0;
+  r.left_domain = sim.counters().left_domain;
+  r.left_domain_volume = sim.counters().left_domain_volume;
+  r.volume_change = (volume() + r.left_domain_volume) / V0 - 1.0;
   r.guarded = sim.counters().guarded;
   r.filtered = sim.counters().filtered;
   r.filter_amplifying = sim.counters().filter_amplifying;
