@@ -18,14 +18,15 @@
 // default 0, off), --collide-isolated 0|1 (collision.isolated; needs --collision), --shift-isolated 0|1
 // (lsmps_params::shift_isolated_penalty, deviation 18), --series DIR (keep every run's front, far-wall probe and
 // counters in DIR/<run>.txt and reuse them: a run whose file exists is loaded, not computed, if the file's
-// configuration key (T_end, walls, options, threads, build) is this one's, else refused; the reference is the single
-// run of its spacing, so a reference computed once serves later studies, and `--single "" --multi ""` runs the
-// reference alone; a loaded run's wall time is the one measured when it was computed, so use --repetitions 1). Results:
-// obstacle_multires_speed_error.* and obstacle_multires_speed_up.csv. The impulse needs a T_end past the reference's
-// impact and its 10 ms window (T ≳ 3.2); with the default 2.4 only the front is compared. The study asks for a
-// 1 mm reference to t = 0.4 s (T = 5.6); what was run is in docs/validation.md "Dam break with the obstacle". A
-// configuration that fails is recorded (not repeated; NaN metrics, `completed` 0, T reached) and the study goes on; a
-// failed reference stops it.
+// configuration key (L, T_end, walls, options, the case's vessel settings, threads, compiler flags) is this one's, else
+// refused; the key does not cover the library's code, so a directory belongs to one build: empty it after changing the
+// code; the reference is the single run of its spacing, so a reference computed once serves later studies, and
+// `--single "" --multi "" --series DIR` runs the reference alone; a loaded run's wall time is the one measured when it
+// was computed, so use --repetitions 1). Results: obstacle_multires_speed_error.* and obstacle_multires_speed_up.csv.
+// The impulse needs a T_end past the reference's impact and its 10 ms window (T ≳ 3.2); with the default 2.4 only the
+// front is compared. The study asks for a 1 mm reference to t = 0.4 s (T = 5.6); what was run is in
+// docs/validation.md "Dam break with the obstacle". A configuration that fails is recorded (not repeated; NaN metrics,
+// `completed` 0, T reached) and the study goes on; a failed reference stops it.
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -125,16 +126,25 @@ class run_cache {
     return s;
   }
 
-  static void save(const std::filesystem::path& path, const std::string& key, const cases::tanaka_dam_break_result& r) {
-    std::ofstream f(path);
-    f.precision(17);
-    f << "key " << key << "\ncounters " << r.particles << ' ' << r.particles_end << ' ' << r.steps << ' '
-      << r.wall_seconds << ' ' << r.ppe_iterations << ' ' << r.guarded << ' ' << r.min_pair_ratio << ' '
-      << r.u_max << ' ' << r.failed << ' ' << r.T_failed << "\nfailure " << one_line(r.failure) << "\nfront " << r.T.size() << "\n";
-    for (std::size_t k = 0; k < r.T.size(); ++k) f << r.T[k] << ' ' << r.Z[k] << '\n';
-    f << "probe " << r.probe_t.size() << "\n";
-    for (std::size_t k = 0; k < r.probe_t.size(); ++k) f << r.probe_t[k] << ' ' << r.probe_p[k] << '\n';
-    if (!f) fail("report_obstacle_multires: cannot write ", path.string());
+  // Written beside the target and renamed onto it, so that a killed run or a second study sharing the directory
+  // never sees half a file.
+  static void save(const std::filesystem::path& path, const std::string& key,
+                   const cases::tanaka_dam_break_result& r) {
+    const std::filesystem::path tmp = path.string() + ".partial";
+    {
+      std::ofstream f(tmp);
+      f.precision(17);
+      f << "key " << key << "\ncounters " << r.particles << ' ' << r.particles_end << ' ' << r.steps << ' '
+        << r.wall_seconds << ' ' << r.ppe_iterations << ' ' << r.guarded << ' ' << r.min_pair_ratio << ' '
+        << r.u_max << ' ' << r.failed << ' ' << r.T_failed << "\nfailure " << one_line(r.failure) << "\nfront "
+        << r.T.size() << "\n";
+      for (std::size_t k = 0; k < r.T.size(); ++k) f << r.T[k] << ' ' << r.Z[k] << '\n';
+      f << "probe " << r.probe_t.size() << "\n";
+      for (std::size_t k = 0; k < r.probe_t.size(); ++k) f << r.probe_t[k] << ' ' << r.probe_p[k] << '\n';
+      f.close();
+      if (!f) fail("report_obstacle_multires: cannot write ", tmp.string());
+    }
+    std::filesystem::rename(tmp, path);
   }
 
   // Numbers through strtod (istream's >> rejects "nan"); every field must be present and whole.
@@ -182,6 +192,7 @@ class run_cache {
     r.failure = section("failure");
     const auto pairs = [&](const char* name, std::vector<double>& a, std::vector<double>& b) {
       numbers(section(name), 1);
+      if (!(v[0] >= 0.0 && v[0] <= 1e8 && v[0] == std::floor(v[0]))) bad("a series length is not a count");
       const std::size_t n = static_cast<std::size_t>(v[0]);
       for (std::size_t k = 0; k < n; ++k) {
         if (!std::getline(f, line)) bad("a series is short");
@@ -277,12 +288,19 @@ int main(int argc, char** argv) try {
             << ref_mm << " mm, walls '" << walls << "', collision alpha1 " << collision
             << (collide_isolated ? " (isolated particles too)" : "")
             << (shift_isolated ? ", isolated particles in the shifting penalty" : "") << "\n";
-  // A run's configuration, the key of its --series file: everything that changes its result or its wall time.
-  const auto key = [&](const std::string& run) {
+  // A run's configuration, the key of its --series file: the options that change its result or its wall time, and
+  // the case's vessel settings. Not the library's code: a series directory belongs to one build of it.
+  if (singles.empty() && multis.empty() && series.empty())
+    fail("report_obstacle_multires: --single \"\" --multi \"\" runs the reference alone, to keep it: give "
+         "--series DIR");
+  const auto key = [&](const std::string& run, double L_mm) {
+    const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L_mm);
     std::ostringstream k;
     k.precision(17);
-    k << run << "; T " << T_end << "; walls " << walls << "; collision " << collision << " isolated "
-      << collide_isolated << "; shift_isolated " << shift_isolated << "; threads " << max_threads() << "; build " << MPSKIT_BENCH_FLAGS;
+    k << run << "; L " << L_mm << " mm; T " << T_end << "; walls " << walls << "; collision " << collision
+      << " isolated " << collide_isolated << "; shift_isolated " << shift_isolated << "; vessel " << c.vessel_height
+      << " m" << (c.closed_top ? " closed" : " open") << (c.remove_outside ? ", remove_outside" : "") << "; threads "
+      << max_threads() << "; build " << MPSKIT_BENCH_FLAGS;
     return k.str();
   };
   const auto file = [](const std::string& run) {  // "multi 5/2.5 mm" -> "multi_5_over_2.5_mm"
@@ -297,13 +315,14 @@ int main(int argc, char** argv) try {
   const auto single_run = [&](double L_mm) {
     std::ostringstream name;
     name << "single " << L_mm << " mm";
-    return cache.get(file(name.str()), key(name.str()), [&] {
+    return cache.get(file(name.str()), key(name.str(), L_mm), [&] {
       return cases::run_tanaka_dam_break(cases::tanaka_obstacle_config(1e-3 * L_mm), T_end, p, true);
     }, std::cout);
   };
   const cases::tanaka_dam_break_config ref_c = cases::tanaka_obstacle_config(1e-3 * ref_mm);
   const cases::tanaka_dam_break_result ref = single_run(ref_mm);
-  if (ref.failed) fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ", ref.failure);
+  if (ref.failed)
+    fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ", ref.failure);
   const cases::impact_measures mref = far_wall_impact(ref);
   const double T_impact = std::isfinite(mref.t_arrival) ? cases::make_tanaka_dam_break(ref_c).t_star(mref.t_arrival)
                                                         : std::numeric_limits<double>::infinity();
@@ -328,7 +347,7 @@ int main(int argc, char** argv) try {
     what.precision(17);
     what << name.str() << " (ratio " << ratio << ", r0 0.03 m, r1 0.06 m)";
     rep.add({name.str(), "multi", 1e-3 * L, [=, &ref, &cache, &key, &file, n = name.str(), w = what.str()] {
-               return outcome_of(cache.get(file(n), key(w), [&] {
+               return outcome_of(cache.get(file(n), key(w, L), [&] {
                  const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L);
                  scheme::lsmps_params<2> pm = p;
                  cases::refine_around_block(pm, c, ratio, 0.03, 0.06);
