@@ -61,6 +61,18 @@ struct tank_multires : lsmps_defaults<D> {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
+/// The tank at rest that the stepper tests refine on its right part: W = 0.1 m, H = 0.05 m, 60° incline (B = 0.04
+/// m), L = 0.01 m.
+cases::polygon_tank_config refined_tank_config() {
+  cases::polygon_tank_config tc;
+  tc.W = 0.1;
+  tc.H = 0.05;
+  tc.tank_height = 0.1;
+  tc.L = 0.01;
+  tc.B = 0.04;
+  return tc;
+}
+
 /// The Taylor–Green scene with split/merge as its resolution policy.
 struct tg_multires : cases::taylor_green_scene {
   using resolution = mpskit::resolution::split_merge<>;
@@ -1414,12 +1426,7 @@ TEST_CASE("split_merge: a particle removed outside lsmps_params::remove_outside 
   // of its right wall at x = W) and the box's right side at x = W: it is removed at the start of the first step
   // and enters the ledger as the flux "left_domain" (−V, −V u, −1 particle); the splits balance to the ulp, so
   // ΣV at the end is ΣV0 − L² to rounding.
-  cases::polygon_tank_config tc;
-  tc.W = 0.1;
-  tc.H = 0.05;
-  tc.tank_height = 0.1;
-  tc.L = 0.01;
-  tc.B = 0.04;
+  const cases::polygon_tank_config tc = refined_tank_config();
   const auto tank = cases::make_polygon_tank<2>(tc);
   scheme::lsmps_state<2> s0(tank.size() + 1);
   s0.x().leftCols(tank.size()) = tank.x;
@@ -1454,12 +1461,7 @@ TEST_CASE_TEMPLATE("split_merge: the LSMPS stepper splits at walls, a corner and
   // which holds the right wall, the floor corner and the free surface: 3 steps. Every particle must stay at
   // a signed wall distance ≥ 0, volume and momentum balance per event (the ledger throws otherwise).
   constexpr int D = Dim::value;
-  cases::polygon_tank_config tc;
-  tc.W = 0.1;
-  tc.H = 0.05;
-  tc.tank_height = 0.1;
-  tc.L = 0.01;
-  tc.B = 0.04;
+  const cases::polygon_tank_config tc = refined_tank_config();
   const auto tank = cases::make_polygon_tank<D>(tc);
   scheme::lsmps_state<D> s0(tank.size());
   s0.x() = tank.x;
