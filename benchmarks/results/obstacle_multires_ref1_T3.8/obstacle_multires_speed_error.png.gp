@@ -1,0 +1,11 @@
+set terminal pngcairo size 900,600 font 'sans,11' noenhanced
+set output 'benchmarks/results/obstacle_multires_ref1_T3.8/obstacle_multires_speed_error.png'
+set title 'Dam break with the obstacle, front against 1.00 mm: front_rms against wall time (median of runs)'
+set xlabel 'wall time (s)'
+set ylabel 'front_rms'
+set logscale xy
+set grid
+set key top left
+set offsets graph 0.05, graph 0.05, graph 0.15, graph 0.15
+plot 'benchmarks/results/obstacle_multires_ref1_T3.8/obstacle_multires_speed_error.png.dat' index 0 using 1:2 with linespoints pt 7 title 'single', '' index 0 using 1:2:3 with labels offset 0,1.2 notitle, \
+     'benchmarks/results/obstacle_multires_ref1_T3.8/obstacle_multires_speed_error.png.dat' index 1 using 1:2 with linespoints pt 7 title 'multi', '' index 1 using 1:2:3 with labels offset 0,-1.2 notitle
