@@ -1058,6 +1058,7 @@ TEST_SUITE("restart") {
     CHECK(b.counters().inflow_volume == 0.5);
     CHECK(b.counters().outflow_volume == 0.25);
     CHECK(b.counters().left_domain_volume == 0.125);
+    CHECK(b.counters().net_boundary_volume() == 0.125);  // 0.5 − 0.25 − 0.125, exact in binary
     CHECK(b.counters().filter_amplifying == 7);
     CHECK(b.counters().filter_tapered == 9);
     CHECK(b.counters().own_loop_checked == 11);

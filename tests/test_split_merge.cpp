@@ -1453,6 +1453,8 @@ TEST_CASE("split_merge: a particle removed outside lsmps_params::remove_outside 
   CHECK(fluxes[0].momentum == vec<2>(-0.5 * tc.L * tc.L, 0.0));
   CHECK(fluxes[0].particles == -1);
   CHECK(V1 == doctest::Approx(V0 - tc.L * tc.L).epsilon(1e-14));
+  // The runners' volume balance: ΣV(t) − ΣV(0) − net_boundary_volume() (no inflow or outflow here).
+  CHECK(sim.counters().net_boundary_volume() == -tc.L * tc.L);
 }
 
 TEST_CASE_TEMPLATE("split_merge: the LSMPS stepper splits at walls, a corner and the free surface (tank at rest)",

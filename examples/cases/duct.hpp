@@ -196,7 +196,7 @@ duct_result run_duct_impl(const duct_config& c) {
     const auto& k = sim.counters();
     r.inflow = k.inflow;
     r.outflow = k.outflow + k.outflow_behind;
-    r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume - k.left_domain_volume)) / V0;
+    r.ledger_error = std::abs(volume() - V0 - k.net_boundary_volume()) / V0;
   } else {
     simulation<Scene> sim(p, std::move(s), &walls);
     sim.run_until(c.t_end);

@@ -370,7 +370,7 @@ poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const bo
   r.outflow_behind = k.outflow_behind;
   r.inflow_volume = k.inflow_volume;
   r.outflow_volume = k.outflow_volume;
-  r.ledger_error = std::abs(volume() - V0 - (k.inflow_volume - k.outflow_volume - k.left_domain_volume)) / V0;
+  r.ledger_error = std::abs(volume() - V0 - k.net_boundary_volume()) / V0;
   r.steps = k.steps;
   r.guarded = k.guarded;
   r.pinned = k.pinned_components;

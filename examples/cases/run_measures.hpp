@@ -135,7 +135,7 @@ void record_channel_end(Result& r, const Counters& k, const State& st, double V0
   r.splits = k.splits;
   r.merges = k.merges;
   if constexpr (requires { r.ppe_iterations; }) r.ppe_iterations = k.ppe_iterations;
-  r.ledger_error = std::abs(V_end - V0 - (k.inflow_volume - k.outflow_volume - k.left_domain_volume)) / V0;
+  r.ledger_error = std::abs(V_end - V0 - k.net_boundary_volume()) / V0;
   r.particles_end = st.n_real();
   r.L_min = std::sqrt(V.minCoeff());
   r.L_max = std::sqrt(V.maxCoeff());

@@ -399,6 +399,12 @@ struct lsmps_counters {
   double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
   double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
   double left_domain_volume = 0.0; ///< Σ V removed outside lsmps_params::remove_outside (m^D)
+
+  /// The volume the boundaries added: inflow − outflow − what left the domain (m^D); a run's volume balance is
+  /// ΣV(t) − ΣV(0) − net_boundary_volume().
+  [[nodiscard]] double net_boundary_volume() const noexcept {
+    return inflow_volume - outflow_volume - left_domain_volume;
+  }
 };
 
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
