@@ -62,12 +62,6 @@ double number(const std::string& s, const char* what) {
   return v;
 }
 
-/// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: 10 ms window from its
-/// first wet sample, 2 ms filter (as the example tanaka_dam_break).
-cases::impact_measures far_wall_impact(const cases::tanaka_dam_break_result& r) {
-  return cases::measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
-}
-
 /// Issue #9's metrics against the reference: the RMS (and largest) front error at the reference's samples up to
 /// T_impact (the reference's first wet sample at the far-wall probe; the whole run when it never gets there), and
 /// the relative error of the pressure impulse of the first impact at that probe (NaN when the reference has no
@@ -76,7 +70,7 @@ cases::impact_measures far_wall_impact(const cases::tanaka_dam_break_result& r) 
 bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cases::tanaka_dam_break_result& ref,
                               double T_impact, double T_end, const char* name, std::ostream& log) {
   const cases::front_difference d = cases::compare_fronts(r, ref, T_impact);
-  const cases::impact_measures m = far_wall_impact(r), mr = far_wall_impact(ref);
+  const cases::impact_measures m = cases::far_wall_impact(r), mr = cases::far_wall_impact(ref);
   const double impulse_error = mr.complete && m.complete ? std::abs(m.impulse / mr.impulse - 1.0) : std::nan("");
   log << "    " << name << ": far-wall impulse " << m.impulse << " Pa s" << (m.complete ? "" : " (window incomplete)")
       << ", 2 ms peak " << m.peak_filtered << " Pa, guard activations " << r.guarded << ", closest pair "
@@ -323,7 +317,7 @@ int main(int argc, char** argv) try {
   const cases::tanaka_dam_break_result ref = single_run(ref_mm);
   if (ref.failed)
     fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ", ref.failure);
-  const cases::impact_measures mref = far_wall_impact(ref);
+  const cases::impact_measures mref = cases::far_wall_impact(ref);
   const double T_impact = std::isfinite(mref.t_arrival) ? cases::make_tanaka_dam_break(ref_c).t_star(mref.t_arrival)
                                                         : std::numeric_limits<double>::infinity();
   std::cout << "  reference " << ref_mm << " mm: " << ref.particles << " particles, " << ref.steps << " steps, "

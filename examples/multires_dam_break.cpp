@@ -2,9 +2,13 @@
 // (Tanaka, Cardoso & Bahai 2018 §5.6.2, validation-cases.md A7: vessel 400 mm, column 100 × 250 mm, the block
 // on the floor at x = 0) refined around the block by particle splitting and merging (resolution::split_merge,
 // §4.4, eqs. 65–74), against single resolution at the coarse and at the fine spacing. Three runs, one after the
-// other, all with the LSMPS scheme and polygon walls (mpskit::lsmps_defaults<2>) and the wall options
-// `neumann_points_wall_only_active_set` (docs/lsmps_scheme.md deviations 11 and 13; with the library's default
-// wall rows the obstacle case fails at t ≈ 0.11 s even at single resolution):
+// other, all with the LSMPS scheme and polygon walls (mpskit::lsmps_defaults<2>), to T = 3.8, through the surge's
+// impact on the far wall, with the options that get all three through it (cases::obstacle_impact_walls: two-point
+// copy rows, wall-only shifting, the active set, the own-loop guard, conditioned and limited copy rows; the collision
+// stage with alpha1 0.5, isolated particles colliding and in the shifting penalty: docs/lsmps_scheme.md deviations
+// 13 and 15-18 and "Ill-conditioned fits"; all opt-in options of the library, chosen here by the example; with the
+// library's default wall rows the obstacle case fails at t ≈ 0.11 s even at single resolution, and with the earlier
+// default `neumann_points_wall_only_active_set` the runs do not get through the far-wall impact at every spacing):
 //   multi   L coarse, target diameter L/ratio within r0 of the block's centre (0, 5) mm, a linear ramp to 1.05 L
 //           at r1 (our target function: the paper's Fig. 27b is not in the text)
 //   coarse  single resolution at L
@@ -14,29 +18,33 @@
 //                                     (the field `volume` is the particle's area: diameter = √volume)
 //   front.csv     front h/h0 of the three runs every 0.05 in T (NaN after a run's end)
 //   runs.csv      per run: reached T, particles (start, mean over steps, end), events, steps, wall time, front error,
-//                 guard activations, closest pair, largest speed (NaN for a run that made no step)
+//                 guard activations, closest pair, largest speed (NaN for a run that made no step), the far-wall
+//                 probe's first wet T, impulse over 10 ms and 2 ms-filtered peak, the impulse's error against fine
+//   probe.csv     the far-wall probe's pressure (195, 5) mm after every step of each run (NaN while dry)
 //   particles.png (the multi-resolution run's last written state coloured by diameter), front.png
-// and prints a one-screen summary: particle saving, wall time and front error against single resolution.
+// and prints a one-screen summary: particle saving, wall time, front error (before the fine run's far-wall impact)
+// and impulse error against single resolution.
 //
 // Usage: multires_dam_break [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1]
-//                           [--collide-isolated] [--shift-isolated] [--no-single] [--full] [--out DIR]
+//                           [--no-collide-isolated] [--no-shift-isolated] [--no-single] [--full] [--out DIR]
 //   --L      coarse diameter in mm (default 5; the block is then two particles wide)
 //   --ratio  coarse / fine diameter (default 2: 2.5 mm at the block, the finest spacing at which the single-
 //            resolution reference runs over the block; at 2 mm it fails in the block impact, T ≈ 1.5)
-//   --T      end time in T (default 2.4: the surge has run over the block and is 40 mm from the far wall; the
-//            far-wall impact is not yet run through reliably at every spacing, docs/lsmps_scheme.md)
+//   --T      end time in T (default 3.8: the far-wall probe gets wet at T ≈ 3.45 and its 10 ms impact window
+//            ends by T ≈ 3.6; 5.6 is the paper's t = 0.4 s, about 14 minutes for the three runs)
 //   --r0, --r1  the refined zone's radius and the ramp's outer radius in mm (default 30, 60)
 //   --walls  the wall options of all three runs, a name of cases::tanaka_wall_variants (default
-//            neumann_points_wall_only_active_set, cases::obstacle_walls; docs/resolution.md "The main example")
-//   --collision  lsmps_params::collision.alpha1 of all three runs: the opt-in collision stage (default 0: off;
-//            docs/lsmps_scheme.md deviation 17); with --walls two_point_wall_only_active_set_own_loop_copies_-
-//            conditioned_limited and --collision 0.5 the 5 / 2.5 mm and 5 mm runs get through the far-wall impact
-//            to t = 0.4 s (T = 5.6), but the 2.5 mm one fails at the block (T = 1.99; docs/validation.md "Dam
-//            break with the obstacle"); with --collide-isolated --shift-isolated as well all three runs reach
-//            T = 5.6 with no guard activation (about 14 minutes; docs/resolution.md "The main example")
-//   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
-//   --shift-isolated  lsmps_params::shift_isolated_penalty: isolated particles enter the others' shifting penalty
-//            (eq. 96; docs/lsmps_scheme.md deviation 18)
+//            cases::obstacle_impact_walls; docs/resolution.md "The main example")
+//   --collision  lsmps_params::collision.alpha1 of all three runs: the opt-in collision stage (default 0.5;
+//            0 turns it off; docs/lsmps_scheme.md deviation 17); without isolated particles colliding and in the
+//            shifting penalty the 2.5 mm run fails at the block (T = 1.99; docs/validation.md "Dam break with the
+//            obstacle")
+//   --no-collide-isolated  lsmps_params::collision.isolated off: isolated particles do not collide (default on
+//            with the collision stage; --collide-isolated, the former opt-in, is accepted and changes nothing)
+//   --no-shift-isolated  lsmps_params::shift_isolated_penalty off: isolated particles stay out of the others'
+//            shifting penalty (eq. 96 as printed; docs/lsmps_scheme.md deviation 18; --shift-isolated accepted)
+//   The earlier default (to T = 2.4, before the impact): --walls neumann_points_wall_only_active_set --collision 0
+//            --no-shift-isolated --T 2.4
 //   --no-single the multi-resolution run alone
 //   --full   the paper's sizes: L = 5 mm, ratio 5 (1 mm at the block), the single-resolution reference at 1 mm
 //            (24 969 particles in the paper); hours on two cores, and not expected to get through yet
@@ -50,6 +58,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -69,7 +78,9 @@ struct run_record {
   double L = 0.0;                 ///< the run's coarse diameter (m)
   cases::tanaka_dam_break_result r;
   double mean_particles = 0.0;    ///< fluid particles averaged over the steps
-  cases::front_difference front;  ///< against the fine run
+  cases::front_difference front;  ///< against the fine run, before its far-wall impact
+  cases::impact_measures impact;   ///< the first impact at the far-wall probe (195, 5) mm
+  double impulse_error = std::nan("");  ///< |impulse / fine's − 1| (NaN unless both windows are complete)
   double T_reached() const { return r.failed ? r.T_failed : r.T.empty() ? 0.0 : r.T.back(); }
   /// The closest pair (r_ij/L_ij) and the largest speed (in sqrt_gH) after any step; NaN when no step was made or
   /// no pair came within 1.5 L_ij (min_pair_ratio's 1e300).
@@ -87,12 +98,12 @@ std::string fmt_mm(double L) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  double L_mm = 5.0, ratio = 2.0, T_end = 2.4, r0_mm = 30.0, r1_mm = 60.0, collision = 0.0;
-  bool single = true, collide_isolated = false, shift_isolated = false;
-  std::string out = "out/multires_dam_break", walls = cases::obstacle_walls;
+  double L_mm = 5.0, ratio = 2.0, T_end = 3.8, r0_mm = 30.0, r1_mm = 60.0, collision = 0.5;
+  bool single = true, collide_isolated = true, shift_isolated = true, collide_isolated_asked = false;
+  std::string out = "out/multires_dam_break", walls = cases::obstacle_impact_walls;
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--collide-isolated] "
-                 "[--shift-isolated] [--no-single] [--full] [--out DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] "
+                 "[--no-shift-isolated] [--no-single] [--full] [--out DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -100,8 +111,10 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 5.0, ratio = 5.0;
     else if (!std::strcmp(argv[a], "--no-single")) single = false;
-    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = true;
+    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
+    else if (!std::strcmp(argv[a], "--no-collide-isolated")) collide_isolated = collide_isolated_asked = false;
     else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
+    else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--r0 abc` is refused, not read as 0); ranges below.
       const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
@@ -128,8 +141,9 @@ int main(int argc, char** argv) {
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail(who, ": --T ", T_end, ": must be > 0");
     cases::tanaka_wall_variant_named(walls, "multires_dam_break --walls");  // refused here, before any run
     regularize::sized_collision_params{.alpha1 = collision}.validate();     // --collision, also before any run
-    if (collide_isolated && collision == 0.0)
+    if (collide_isolated_asked && collision == 0.0)
       fail(who, ": --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
+    if (collision == 0.0) collide_isolated = false;  // nothing collides without the stage (the default's "on" lapses)
     const double L = 1e-3 * L_mm, Lf = L / ratio;
     const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
     const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);
@@ -195,8 +209,16 @@ int main(int argc, char** argv) {
     }
     run_record& multi = runs[0];
     const cases::tanaka_dam_break_result* ref = single ? &runs[2].r : nullptr;
+    for (run_record& rr : runs) rr.impact = cases::far_wall_impact(rr.r);
+    // Fronts compared up to the fine run's first wet sample at the far-wall probe (after it every front is the
+    // vessel's width), as the speed-against-error reporter (benchmarks/report_obstacle_multires.cpp).
+    const double T_impact = single ? db.t_star(runs[2].impact.t_arrival) : std::nan("");
     if (ref)
-      for (run_record& rr : runs) rr.front = cases::compare_fronts(rr.r, *ref);
+      for (run_record& rr : runs) {
+        rr.front = cases::compare_fronts(rr.r, *ref, std::isfinite(T_impact) ? T_impact : std::numeric_limits<double>::infinity());
+        if (rr.impact.complete && runs[2].impact.complete)
+          rr.impulse_error = std::abs(rr.impact.impulse / runs[2].impact.impulse - 1.0);
+      }
 
     {
       std::vector<io::csv_column> cols{{"T", "1"}};
@@ -219,16 +241,36 @@ int main(int argc, char** argv) {
                          {{"run", "1"}, {"L", "mm"}, {"L_min", "mm"}, {"T_reached", "1"}, {"failed", "1"},
                           {"particles_start", "1"}, {"particles_mean", "1"}, {"particles_end", "1"}, {"splits", "1"},
                           {"merges", "1"}, {"steps", "1"}, {"wall", "s"}, {"front_rms", "1"}, {"front_max", "1"},
-                          {"T_compared", "1"}, {"guard", "1"}, {"closest_pair", "L"}, {"max_u", "sqrt(gH)"}},
-                         io::csv_mode::truncate, {order, "front_rms, front_max: |h/h0 / (h/h0 of fine) - 1| over the common samples"});
+                          {"T_compared", "1"}, {"guard", "1"}, {"closest_pair", "L"}, {"max_u", "sqrt(gH)"},
+                          {"T_wet", "1"}, {"impulse", "Pa s"}, {"peak_2ms", "Pa"}, {"impulse_error", "1"}},
+                         io::csv_mode::truncate,
+                         {order, "front_rms, front_max: |h/h0 / (h/h0 of fine) - 1| over the common samples before the fine run's T_wet",
+                          "T_wet: the far-wall probe (195, 5) mm's first wet sample; impulse, peak_2ms over the 10 ms from it (NaN if incomplete)"});
       for (std::size_t k = 0; k < runs.size(); ++k) {
         const run_record& rr = runs[k];
         csv.row({double(k), rr.L * 1e3, rr.r.L_min * 1e3, rr.T_reached(), rr.r.failed ? 1.0 : 0.0, double(rr.r.particles),
                  rr.mean_particles, double(rr.r.particles_end), double(rr.r.splits), double(rr.r.merges), double(rr.r.steps),
                  rr.r.wall_seconds, rr.front.rms, rr.front.max, rr.front.T_last, double(rr.r.guarded), rr.pair(),
-                 rr.speed(sqrt_gH)});
+                 rr.speed(sqrt_gH), db.t_star(rr.impact.t_arrival), rr.impact.complete ? rr.impact.impulse : std::nan(""),
+                 rr.impact.complete ? rr.impact.peak_filtered : std::nan(""), rr.impulse_error});
       }
     }
+    {
+      std::vector<io::csv_column> cols;
+      for (const run_record& rr : runs) cols.insert(cols.end(), {{"t_" + rr.name, "s"}, {"p_" + rr.name, "Pa"}});
+      io::csv_writer csv(fs::path(out) / "probe.csv", cols);
+      std::size_t longest = 0;
+      for (const run_record& rr : runs) longest = std::max(longest, rr.r.probe_t.size());
+      for (std::size_t k = 0; k < longest; ++k) {
+        std::vector<double> row;
+        for (const run_record& rr : runs)
+          for (const auto* v : {&rr.r.probe_t, &rr.r.probe_p}) row.push_back(k < v->size() ? (*v)[k] : std::nan(""));
+        csv.row(row);
+      }
+    }
+    // The probe picture's window: around the fine run's first impact (the reference), else the multi run's.
+    const double t_wet = single && std::isfinite(runs[2].impact.t_arrival) ? runs[2].impact.t_arrival : multi.impact.t_arrival;
+    const bool any_wet = std::isfinite(t_wet);
     const std::string gp = (fs::path(out) / "plot.gp").string();
     {
       const std::string o = out;
@@ -246,6 +288,22 @@ int main(int argc, char** argv) {
           << ", " << fmt_mm(runs[k].L) << " mm" << (k == 0 ? " / " + fmt_mm(Lf) + " mm" : std::string())
           << "'";
       g << "\n";
+      // The far-wall probe around the impact (from 10 ms before t_wet to 20 ms after it).
+      // Every step's sample, one-step spikes clipped at twice the largest 2 ms-filtered peak (they reach MPa).
+      double peak = 0.0;
+      for (const run_record& rr : runs)
+        if (std::isfinite(rr.impact.peak_filtered)) peak = std::max(peak, rr.impact.peak_filtered);
+      if (any_wet) {
+        g << "set output '" << o << "/probe.png'\nset title 'pressure at the far-wall probe (195, 5) mm, every step (clipped at "
+          << "twice the largest 2 ms-filtered peak)'\nset xlabel 't (s)'\nset ylabel 'p (Pa)'\nset xrange [" << t_wet - 0.01
+          << ":" << t_wet + 0.02 << "]\n";
+        if (peak > 0.0) g << "set yrange [" << -0.5 * peak << ":" << 2.0 * peak << "]\n";
+        g << "plot ";
+        for (std::size_t k = 0; k < runs.size(); ++k)
+          g << (k ? ", " : "") << "'" << o << "/probe.csv' using " << 2 * k + 1 << ":" << 2 * k + 2
+            << " every ::1 with lines title '" << runs[k].name << "'";
+        g << "\n";
+      }
     }
     const bool pictures = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str()) == 0;
 
@@ -263,6 +321,19 @@ int main(int argc, char** argv) {
     }
     std::printf("  (pair L: the closest pair r_ij/L_ij after any step; |u|max: the largest speed in sqrt(g H), H = %.0f mm; "
                 "issue #9's hard-case bounds are >= 0.3 and <= 5)\n", cfg_coarse.column_height * 1e3);
+    std::printf("  far-wall probe (195, 5) mm, first impact: the 10 ms from its first wet sample (the paper's probe is 5 mm "
+                "above the block and has no far-wall figure)\n  %-7s %7s %13s %13s  %s\n", "run", "wet T", "impulse Pa s", "2 ms peak Pa", "impulse vs fine");
+    for (const run_record& rr : runs) {
+      if (!std::isfinite(rr.impact.t_arrival)) {
+        std::printf("  %-7s dry to the end\n", rr.name.c_str());
+        continue;
+      }
+      std::printf("  %-7s %7.3f %13.2f %13.0f  ", rr.name.c_str(), db.t_star(rr.impact.t_arrival), rr.impact.impulse,
+                  rr.impact.peak_filtered);
+      if (!rr.impact.complete) std::printf("(window incomplete)\n");
+      else if (std::isfinite(rr.impulse_error)) std::printf("%.1f %%\n", 100.0 * rr.impulse_error);
+      else std::printf("-\n");
+    }
     for (const run_record& rr : runs)
       if (rr.r.failed) std::printf("  '%s' FAILED at T = %.3f: %s\n", rr.name.c_str(), rr.r.T_failed, rr.r.failure.c_str());
     if (single) {
@@ -282,7 +353,8 @@ int main(int argc, char** argv) {
     std::printf("  multi: volume change %.1e (splits and merges conserve it), smallest diameter %.2f mm, closest pair %.3f L\n",
                 multi.r.volume_change, multi.r.L_min * 1e3, multi.r.min_pair_ratio);
     std::printf("  output: %s/multires_dam_break.pvd (%ld files), front.csv, runs.csv%s\n", out.c_str(),
-                long(vtk.files_written()), pictures ? ", particles.png, front.png" : " (no gnuplot: pictures skipped)");
+                long(vtk.files_written()), !pictures ? ", probe.csv (no gnuplot: pictures skipped)"
+                : any_wet ? ", probe.csv, particles.png, front.png, probe.png" : ", probe.csv, particles.png, front.png (probe dry: no probe.png)");
     return multi.r.failed ? 1 : 0;
   } catch (const mpskit::error& e) {
     std::fprintf(stderr, "%s\n", e.what());

@@ -2,7 +2,7 @@
 # README quick start, first command: installs what is missing, builds the main example optimised and
 # runs it (one thread unless OMP_NUM_THREADS is set): the multi-resolution dam break with the obstacle
 # against single resolution. Its output goes to out/multires_dam_break/ (ParaView series, front.csv,
-# runs.csv, particles.png, front.png) and a summary is printed. Arguments go to the example (--full, --L, ...).
+# runs.csv, probe.csv, particles.png, front.png, probe.png) and a summary is printed. Arguments go to the example (--full, --L, ...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh

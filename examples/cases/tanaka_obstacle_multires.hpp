@@ -20,10 +20,23 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// The obstacle runs' default wall options (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0;
-/// docs/lsmps_scheme.md deviations 11 and 13). With the library's default rows the obstacle case fails at
-/// t ≈ 0.11 s even at single resolution.
+/// The wall options of the obstacle case's test (label dam_break_multires, to T = 2.4) and the reporter's default
+/// (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0; docs/lsmps_scheme.md deviations 11 and
+/// 13); the main example's default until 2026-12-03 (now obstacle_impact_walls). With the library's default rows
+/// the obstacle case fails at t ≈ 0.11 s even at single resolution.
 inline constexpr const char* obstacle_walls = "neumann_points_wall_only_active_set";
+
+/// The wall options that carry the obstacle case through the far-wall impact (two-point copy rows, wall-only
+/// shifting, the active set, the own-loop guard, conditioned and limited copy rows; docs/lsmps_scheme.md): the main
+/// example's default, with the collision stage (alpha1 0.5, isolated particles too) and isolated particles in the
+/// shifting penalty (deviations 17 and 18).
+inline constexpr const char* obstacle_impact_walls = "two_point_wall_only_active_set_own_loop_copies_conditioned_limited";
+
+/// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: a 10 ms window from its
+/// first wet sample, a 2 ms filter (as the example tanaka_dam_break; measure_impact).
+inline impact_measures far_wall_impact(const tanaka_dam_break_result& r) {
+  return measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
+}
 
 /// The obstacle runs' parameters with the wall variant `walls` (a name of tanaka_wall_variants; unknown names
 /// are refused).
