@@ -90,7 +90,8 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 /// two_point_wall_only_active_set_own_loop_copies_conditioned_limited (the same with shift_velocity_limit:
 /// docs/lsmps_scheme.md "The shifted velocity's limiter") and
 /// neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
-/// configuration of the main example, examples/multires_dam_break.cpp). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
+/// configuration of the main example, examples/multires_dam_break.cpp, until 2026-12-03; it now uses the
+/// conditioned, limited variant above with the collision stage). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
 struct tanaka_wall_variant {
   std::string name;   ///< as given on a command line
   std::string tag;    ///< suffix of a configuration name

@@ -46,6 +46,17 @@ inline scheme::lsmps_params<2> obstacle_params(const std::string& walls = obstac
   return p;
 }
 
+/// The main example's default options (examples/multires_dam_break.cpp), which carry the obstacle case and the plain
+/// dam break through the far-wall impact: obstacle_impact_walls, the collision stage at alpha1 = 0.5 with isolated
+/// particles colliding too, isolated particles in the shifting penalty (all opt-in in the library).
+inline scheme::lsmps_params<2> obstacle_impact_params() {
+  scheme::lsmps_params<2> p = obstacle_params(obstacle_impact_walls);
+  p.collision.alpha1 = 0.5;
+  p.collision.isolated = true;
+  p.shift_isolated_penalty = true;
+  return p;
+}
+
 /// Sets p's target diameter to L/ratio within r0 of the block's centre, a linear ramp to 1.05 L at r1 (ours: the
 /// paper's Fig. 27b is not in the text; 1.05 L so that coarse particles outside never merge), and
 /// wall_contact = 0.75 (a split beside a wall keeps a child in contact, docs/resolution.md). L = c.L. Refused
