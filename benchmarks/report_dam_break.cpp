@@ -10,8 +10,11 @@
 // scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A order,
 // default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points]
 // [,two_point_wall_only][,two_point_wall_only_active_set] (the LSMPS wall rows: lsmps_params::copy_row, or
-// copy_two_point = 1 with wall-only shifting, optionally with active_set_solves = 10; default parent_gradient,
-// the library's default).
+// copy_two_point = 1 with wall-only shifting, optionally with active_set_solves = 10; any name of
+// cases::tanaka_wall_variants; default parent_gradient, the library's default), --lsmps-collision ALPHA1 (the
+// opt-in collision stage, lsmps_params::collision.alpha1; default 0: off), --lsmps-collide-isolated (isolated
+// particles collide too), --lsmps-shift-isolated (isolated particles in the shifting penalty,
+// lsmps_params::shift_isolated_penalty): the last three as the main example (examples/multires_dam_break.cpp).
 //
 // The LSMPS case (cases/tanaka_dam_break_run.hpp, issue #7) has the same shape as Koshizuka & Oka's (vessel
 // 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data in
@@ -147,18 +150,35 @@ struct lsmps_order3 : lsmps_defaults<2> {
 /// Besides the front: the probe at (195, 5) mm sampled every step (cases::measure_impact; window 10 ms after
 /// the probe gets wet, 2 ms moving average, every 100 steps as Tanaka sampled), NaN when the run did not
 /// reach the end of the window.
+/// The LSMPS runs' opt-in collision and shifting options (--lsmps-collision, ...); tag() names them in a
+/// configuration ("" when all are off).
+struct lsmps_extras {
+  double alpha1 = 0.0;
+  bool collide_isolated = false, shift_isolated = false;
+  std::string tag() const {
+    std::ostringstream t;
+    if (alpha1 > 0.0) t << "-coll" << alpha1 << (collide_isolated ? "i" : "");
+    if (shift_isolated) t << "-si";
+    return t.str();
+  }
+};
+
 template <class Scene>
 bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data,
-                                const cases::tanaka_wall_variant& walls) {
+                                const cases::tanaka_wall_variant& walls, const lsmps_extras& x) {
   cases::tanaka_dam_break_config cfg;
   cfg.L = cfg.column_width / N;
   bench::configuration c;
-  c.name = "lsmps-" + std::to_string(order) + walls.tag + " h0/" + std::to_string(N);
-  c.series = "LSMPS-A order " + std::to_string(order) + walls.label + " (Tanaka's vessel)";
+  c.name = "lsmps-" + std::to_string(order) + walls.tag + x.tag() + " h0/" + std::to_string(N);
+  c.series = "LSMPS-A order " + std::to_string(order) + walls.label + x.tag() + " (Tanaka's vessel)";
   c.l0 = cfg.L;
   const std::string c_name = c.name;
   scheme::lsmps_params<2> p;
   walls.apply(p);
+  p.collision.alpha1 = x.alpha1;
+  p.collision.isolated = x.collide_isolated;
+  p.shift_isolated_penalty = x.shift_isolated;
+  p.validate();  // before any run: a bad --lsmps-collision is refused here
   c.run = [cfg, data, T_end, c_name, p]() {
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true);
     bench::run_outcome o = outcome_of(r, *data, T_end, c_name);
@@ -198,6 +218,7 @@ int main(int argc, char** argv) try {
   std::vector<const cases::tanaka_wall_variant*> lsmps_walls{&cases::tanaka_wall_variant_named("parent_gradient", "report_dam_break --lsmps-walls")};
   int reps = 3;
   double T_end = 3.0, lsmps_T_end = -1.0;
+  lsmps_extras extras;
   std::string out = "benchmarks/results", data_dir = MPSKIT_DAM_BREAK_DATA_DIR;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -238,13 +259,20 @@ int main(int argc, char** argv) try {
     } else if (a == "--lsmps-T-end") {
       lsmps_T_end = bench::parse_number("--lsmps-T-end", next(), 0.0);
       if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
+    } else if (a == "--lsmps-collision") {
+      extras.alpha1 = bench::parse_number("--lsmps-collision", next(), 0.0);
+    } else if (a == "--lsmps-collide-isolated") {
+      extras.collide_isolated = true;
+    } else if (a == "--lsmps-shift-isolated") {
+      extras.shift_isolated = true;
     } else if (a == "--out") {
       out = next();
     } else if (a == "--data") {
       data_dir = next();
     } else {
       fail("report_dam_break: unknown option '", a,
-           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --lsmps-walls, --out, --data)");
+           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --lsmps-walls, --lsmps-collision, --lsmps-collide-isolated, "
+           "--lsmps-shift-isolated, --out, --data)");
     }
   }
   const std::vector<cases::front_series> data = cases::read_front_data(data_dir);
@@ -267,11 +295,13 @@ int main(int argc, char** argv) try {
       }
     }
   if (lsmps_T_end < 0.0) lsmps_T_end = T_end;
+  if (extras.collide_isolated && !(extras.alpha1 > 0.0))
+    fail("report_dam_break: --lsmps-collide-isolated needs the collision stage on (--lsmps-collision ALPHA1 > 0)");
   for (const cases::tanaka_wall_variant* w : lsmps_walls)
     for (int q : lsmps_orders)
       for (int N : lsmps_levels) {
-        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, *w));
-        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, *w));
+        if (q == 2) rep.add(make_lsmps<lsmps_defaults<2>>(2, N, lsmps_T_end, &data, *w, extras));
+        else rep.add(make_lsmps<lsmps_order3>(3, N, lsmps_T_end, &data, *w, extras));
       }
   rep.run_all(std::cout);
   std::filesystem::create_directories(out);
