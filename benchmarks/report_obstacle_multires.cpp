@@ -14,7 +14,7 @@
 // Options: --reference mm (default 2.5: the finest spacing whose single run gets over the block, docs/resolution.md),
 // --single L1,L2,... (mm, default 5,4,3.33), --multi L/ratio,... (default 5/2), --T T_end (default 2.4), --repetitions
 // R (default 3), --out DIR (default benchmarks/results), --walls NAME (a name of cases::tanaka_wall_variants; default
-// cases::obstacle_walls, the main example's until 2026-12-03; cases::obstacle_impact_walls is its default now), --collision ALPHA1 (the opt-in collision stage, lsmps_params::collision;
+// cases::obstacle_walls, the main example's until 2026-12-03; cases::tanaka_impact_walls is its default now), --collision ALPHA1 (the opt-in collision stage, lsmps_params::collision;
 // default 0, off), --collide-isolated 0|1 (collision.isolated; needs --collision), --shift-isolated 0|1
 // (lsmps_params::shift_isolated_penalty, deviation 18), --series DIR (keep every run's front, far-wall probe and
 // counters in DIR/<run>.txt and reuse them: a run whose file exists is loaded, not computed, if the file's

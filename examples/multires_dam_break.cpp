@@ -3,7 +3,7 @@
 // on the floor at x = 0) refined around the block by particle splitting and merging (resolution::split_merge,
 // §4.4, eqs. 65–74), against single resolution at the coarse and at the fine spacing. Three runs, one after the
 // other, all with the LSMPS scheme and polygon walls (mpskit::lsmps_defaults<2>), to T = 3.8, through the surge's
-// impact on the far wall, with the options that get all three through it (cases::obstacle_impact_walls: two-point
+// impact on the far wall, with the options that get all three through it (cases::tanaka_impact_walls: two-point
 // copy rows, wall-only shifting, the active set, the own-loop guard, conditioned and limited copy rows; the collision
 // stage with alpha1 0.5, isolated particles colliding and in the shifting penalty: docs/lsmps_scheme.md deviations
 // 13 and 15-18 and "Ill-conditioned fits"; all opt-in options of the library, chosen here by the example; with the
@@ -36,7 +36,7 @@
 //            ends by T ≈ 3.6; 5.6 is the paper's t = 0.4 s, about 14 minutes for the three runs)
 //   --r0, --r1  the refined zone's radius and the ramp's outer radius in mm (default 30, 60)
 //   --walls  the wall options of all three runs, a name of cases::tanaka_wall_variants (default
-//            cases::obstacle_impact_walls; docs/resolution.md "The main example")
+//            cases::tanaka_impact_walls; docs/resolution.md "The main example")
 //   --collision  lsmps_params::collision.alpha1 of all three runs: the opt-in collision stage (default 0.5;
 //            0 turns it off; docs/lsmps_scheme.md deviation 17); without isolated particles colliding and in the
 //            shifting penalty the 2.5 mm run fails at the block (T = 1.99; docs/validation.md "Dam break with the
@@ -101,11 +101,11 @@ std::string fmt_mm(double L) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const scheme::lsmps_params<2> defaults = cases::obstacle_impact_params();  // the options' defaults
+  const scheme::lsmps_params<2> defaults = cases::tanaka_impact_params();  // the options' defaults
   double L_mm = 5.0, ratio = 2.0, T_end = 3.8, r0_mm = 30.0, r1_mm = 60.0, collision = defaults.collision.alpha1;
   bool single = true, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
   bool collide_isolated_asked = false;
-  std::string out = "out/multires_dam_break", walls = cases::obstacle_impact_walls;
+  std::string out = "out/multires_dam_break", walls = cases::tanaka_impact_walls;
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] "
                  "[--no-shift-isolated] [--no-single] [--full] [--out DIR]\n",

@@ -1139,6 +1139,30 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.impact.complete);  // through the probe's 10 ms window
     CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
   }
+  TEST_CASE("Tanaka's dam break, L = 3 mm, the main example's options: through the impact with no guard activation") {
+    // cases::tanaka_impact_params(): the conditioned, limited wall variant with the collision stage (alpha1 0.5,
+    // isolated particles too) and isolated particles in the shifting penalty (docs/lsmps_scheme.md deviations 13,
+    // 15-18; all opt-in). With them every spacing from 6 to 1.5 mm measured gets through the far-wall impact to
+    // T = 3.2 with no guard activation, p >= 0 and no pair closer than 0.469 L (docs/validation.md, "With the
+    // collision stage and the isolated-particle options as well"); 3 mm is the spacing with the fastest particle
+    // of the 6-2 mm runs but 2 mm's splash. Measured 2026-12-03 (-O3 harness, the same code): guard 0, p >= 0,
+    // closest pair 0.477 L, max |u| 5.47 sqrt(gH) (issue #9's 5 is not asserted here: this is issue #7's case),
+    // the probe wet at T = 2.839, 45 of 65 front samples in the band, the others ahead of it by at most 0.079 in
+    // Z (2.6 L, T = 2.75): the LSMPS front's lead over the data, which grows with refinement; asserted within
+    // the band widened by 3 L (0.09 in Z).
+    cases::tanaka_dam_break_config c;
+    c.L = 0.003;
+    const auto r = measure_tanaka_dam_break(c, 3.2, cases::tanaka_impact_params(), 0.09, "tanaka_impact_params");
+    CHECK(r.samples >= 60);
+    CHECK(r.inside_widened == r.samples);
+    CHECK(r.active_set_unfinished == 0);
+    CHECK(r.pmin >= 0.0);        // by the active set; issue #7 asks >= -rho g H
+    CHECK(r.guarded == 0);       // no particle crossed a wall, the impact included
+    CHECK(r.min_pair >= 0.45);   // the collision stage: 0.06 L at 3 mm without it (docs/validation.md)
+    REQUIRE(std::isfinite(r.impact.t_arrival));
+    CHECK(r.impact.complete);    // through the probe's 10 ms window
+    CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);  // wet by the surge, not a film
+  }
   TEST_CASE("Tanaka's dam break, L = 4 mm, copies as Neumann points: band and p >= -rho g H for T <= 1.9") {
     // copy_row = neumann_points (opt-in, docs/lsmps_scheme.md deviation 11): no copy unknowns, so the floor
     // copies' runaway of the defaults (their near-null space) cannot happen. Measured: the front in the band

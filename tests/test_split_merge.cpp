@@ -1846,7 +1846,7 @@ TEST_SUITE("dam_break_multires") {
     // ramp to 1.05 L at 150 mm (the paper: 1–5 mm by the distance from that corner, its Fig. 24b is not in the text;
     // ours), wall_contact = 0.75 (a split beside a wall keeps a child in contact, docs/resolution.md). Both runs
     // to T = 3.4, through the surge's impact on the far wall (the probe (195, 5) mm wet at T ≈ 2.9), with the
-    // options of the main example (cases::obstacle_impact_walls, the collision stage at alpha1 0.5 with isolated
+    // options of the main example (cases::tanaka_impact_walls, the collision stage at alpha1 0.5 with isolated
     // particles, isolated particles in the shifting penalty; all opt-in: with the library's defaults the
     // single-resolution dam break fails at T ≈ 1.6, docs/lsmps_scheme.md; until 2026-12-03 this test ran to
     // T = 2.8 with copy_two_point and wall-only shifting, whose multi-resolution run fails at T ≈ 3.2).
@@ -1860,7 +1860,7 @@ TEST_SUITE("dam_break_multires") {
     // would test noise (docs/resolution.md "Dam break with splitting").
     cases::tanaka_dam_break_config c;
     c.L = 0.004;
-    scheme::lsmps_params<2> p = cases::obstacle_impact_params();
+    scheme::lsmps_params<2> p = cases::tanaka_impact_params();
     const double T_end = 3.4;
     const auto single = cases::run_tanaka_dam_break(c, T_end, p);
     const vec<2> corner(c.vessel_right, 0.0);
@@ -1943,7 +1943,7 @@ TEST_SUITE("dam_break_multires") {
   TEST_CASE("the main example's multi-resolution run: the obstacle case through the far-wall impact (T = 3.8) within the hard-case bounds") {
     // examples/multires_dam_break.cpp with its default arguments, the multi-resolution run alone: L = 5 mm,
     // L* = 2.5 mm within 30 mm of the block's centre, a ramp to 1.05 L at 60 mm, to T = 3.8, the options that
-    // carry it through the surge's impact on the far wall (cases::obstacle_impact_walls, the collision stage at
+    // carry it through the surge's impact on the far wall (cases::tanaka_impact_walls, the collision stage at
     // alpha1 0.5 with isolated particles, isolated particles in the shifting penalty; all opt-in, docs/resolution.md
     // "The main example"). Measured (2026-12-03, the example at -O3 and this test, the same numbers): max |u|
     // 3.27 sqrt(gH), closest pair 0.525 L, c <= 1.201, no guard activation, 1001 splits, 719 merges, the far-wall probe (195, 5) mm wet at T = 3.352 and its 10 ms
@@ -1952,7 +1952,7 @@ TEST_SUITE("dam_break_multires") {
     // it), the zone refined and merged back, volume to rounding. Not asserted: the front and impulse against
     // single resolution (the 2.5 mm run costs 4 minutes; the example prints them).
     const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(0.005);
-    scheme::lsmps_params<2> p = cases::obstacle_impact_params();
+    scheme::lsmps_params<2> p = cases::tanaka_impact_params();
     cases::refine_around_block(p, c, 2.0, 0.03, 0.06);
     const double Lf = 0.5 * c.L;
     run_max_packing maxima;

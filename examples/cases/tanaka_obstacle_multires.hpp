@@ -22,15 +22,9 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
 
 /// The wall options of the obstacle case's test (label dam_break_multires, to T = 2.4) and the reporter's default
 /// (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0; docs/lsmps_scheme.md deviations 11 and
-/// 13); the main example's default until 2026-12-03 (now obstacle_impact_walls). With the library's default rows
+/// 13); the main example's default until 2026-12-03 (now tanaka_impact_params(), cases/tanaka_dam_break_run.hpp). With the library's default rows
 /// the obstacle case fails at t ≈ 0.11 s even at single resolution.
 inline constexpr const char* obstacle_walls = "neumann_points_wall_only_active_set";
-
-/// The wall options that carry the obstacle case through the far-wall impact (two-point copy rows, wall-only
-/// shifting, the active set, the own-loop guard, conditioned and limited copy rows; docs/lsmps_scheme.md): the main
-/// example's default, with the collision stage (alpha1 0.5, isolated particles too) and isolated particles in the
-/// shifting penalty (deviations 17 and 18).
-inline constexpr const char* obstacle_impact_walls = "two_point_wall_only_active_set_own_loop_copies_conditioned_limited";
 
 /// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: a 10 ms window from its
 /// first wet sample, a 2 ms filter (as the example tanaka_dam_break; measure_impact).
@@ -46,16 +40,6 @@ inline scheme::lsmps_params<2> obstacle_params(const std::string& walls = obstac
   return p;
 }
 
-/// The main example's default options (examples/multires_dam_break.cpp), which carry the obstacle case and the plain
-/// dam break through the far-wall impact: obstacle_impact_walls, the collision stage at alpha1 = 0.5 with isolated
-/// particles colliding too, isolated particles in the shifting penalty (all opt-in in the library).
-inline scheme::lsmps_params<2> obstacle_impact_params() {
-  scheme::lsmps_params<2> p = obstacle_params(obstacle_impact_walls);
-  p.collision.alpha1 = 0.5;
-  p.collision.isolated = true;
-  p.shift_isolated_penalty = true;
-  return p;
-}
 
 /// Sets p's target diameter to L/ratio within r0 of the block's centre, a linear ramp to 1.05 L at r1 (ours: the
 /// paper's Fig. 27b is not in the text; 1.05 L so that coarse particles outside never merge), and
