@@ -8,21 +8,26 @@
 // and prints a summary: the front against the band, the lowest fluid pressure against −ρgH, the closest pair,
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
-// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--collide-isolated] [--lid mm]
-//                         [--shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
-//   --L      particle diameter in mm (default 5: the spacing at which the default wall options get through
-//            the far-wall impact; docs/lsmps_scheme.md, deviation 13)
+// Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm]
+//                         [--no-shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
+// The defaults (since 2026-12-03) are the main example's options, cases::tanaka_impact_params(): the wall variant
+// two_point_wall_only_active_set_own_loop_copies_conditioned_limited, the collision stage at alpha1 0.5 with
+// isolated particles colliding, isolated particles in the shifting penalty (all opt-in in the library), with which
+// every spacing from 6 to 1.5 mm gets through the far-wall impact with no guard activation (docs/validation.md).
+// Until then: --walls two_point_wall_only_active_set --collision 0 --no-shift-isolated.
+//   --L      particle diameter in mm (default 5)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
 //   --walls  a name of cases::tanaka_wall_variants: parent_gradient (the library's defaults) | neumann_points |
-//            two_point_wall_only | two_point_wall_only_active_set (default) | ..._own_loop | ..._own_loop_copies |
+//            two_point_wall_only | two_point_wall_only_active_set | ..._own_loop | ..._own_loop_copies |
 //            two_point_wall_only_active_set_own_loop_copies_conditioned (through the impact at all 31 spacings
-//            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | ..._conditioned_limited (2 mm too) |
+//            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | ..._conditioned_limited (2 mm too; default) |
 //            neumann_points_wall_only_active_set
-//   --collision  lsmps_params::collision.alpha1: the opt-in collision stage's contact distance in L_ij (default 0:
-//            off; docs/lsmps_scheme.md deviation 17)
-//   --collide-isolated  lsmps_params::collision.isolated: isolated particles collide too (with --collision)
-//   --shift-isolated  lsmps_params::shift_isolated_penalty: isolated particles enter the others' shifting penalty
-//            (eq. 96; docs/lsmps_scheme.md deviation 18)
+//   --collision  lsmps_params::collision.alpha1: the opt-in collision stage's contact distance in L_ij (default
+//            0.5; 0 turns it off, and with it the isolated particles' collisions; docs/lsmps_scheme.md deviation 17)
+//   --no-collide-isolated  lsmps_params::collision.isolated off (default on with the stage; --collide-isolated,
+//            the former opt-in, is still accepted: on, and refused with --collision 0)
+//   --no-shift-isolated  lsmps_params::shift_isolated_penalty off: isolated particles stay out of the others'
+//            shifting penalty (eq. 96 as printed; docs/lsmps_scheme.md deviation 18; --shift-isolated accepted)
 //   --lid    a closed vessel of that height in mm (tanaka_dam_break_config::closed_top; 0 or default: open, 300 mm
 //            walls, 375 mm with --obstacle; over 300 mm the far-wall run-up throws particles out from t ≈ 0.37 s,
 //            T ≈ 5.1, which are removed and counted: tanaka_dam_break_config::remove_outside)
@@ -33,7 +38,9 @@
 //            1.5 mm fails in it (T = 2.82) and 1 mm before it (T = 2.58, PPE not converging after 46 guard
 //            activations; docs/lsmps_scheme.md "The 1.5 mm breakdown"); with --collision 0.5 as well 1.5 mm reaches
 //            T = 3.2 (with 102 guard activations), and so does 1 mm (146 guard activations, the front in the band at
-//            28 of 65 samples, the probe noisy; 66 min on two threads; docs/lsmps_scheme.md).
+//            28 of 65 samples, the probe noisy; 66 min on two threads; docs/lsmps_scheme.md). With the defaults
+//            (isolated particles colliding and in the penalty too) 1.5 mm reaches T = 3.2 with no guard activation
+//            (25 min on one thread, the front in the band at 27 of 65 samples; docs/validation.md); 1 mm not run.
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
 //            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
@@ -61,13 +68,14 @@ namespace fs = std::filesystem;
 using namespace mpskit;
 
 int main(int argc, char** argv) {
-  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = 0.0, lid_mm = 0.0;
-  bool trace = false, collide_isolated = false, shift_isolated = false;
-  bool obstacle = false;
-  std::string walls_name = "two_point_wall_only_active_set", data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
+  const scheme::lsmps_params<2> defaults = cases::tanaka_impact_params();  // the options' defaults
+  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = defaults.collision.alpha1, lid_mm = 0.0;
+  bool trace = false, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
+  bool obstacle = false, collide_isolated_asked = false;
+  std::string walls_name = cases::tanaka_impact_walls, data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
-    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--collide-isolated] [--lid mm] "
-                         "[--shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
+    std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm] "
+                         "[--no-shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -75,8 +83,10 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
-    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = true;
+    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
+    else if (!std::strcmp(argv[a], "--no-collide-isolated")) collide_isolated = collide_isolated_asked = false;
     else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
+    else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
       // switch the stage off); the ranges are checked below.
@@ -104,8 +114,9 @@ int main(int argc, char** argv) {
       fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
     regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
-    if (collide_isolated && collision == 0.0)
+    if (collide_isolated_asked && collision == 0.0)
       fail("tanaka_dam_break: --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
+    if (collision == 0.0) collide_isolated = false;  // nothing collides without the stage (the default's "on" lapses)
     cases::tanaka_dam_break_config cfg = obstacle ? cases::tanaka_obstacle_config(1e-3 * L_mm) : cases::tanaka_dam_break_config{};
     cfg.L = 1e-3 * L_mm;
     if (lid_mm != 0.0) {  // cfg.validate() checks it against the column (a lid at or below the water is refused)
