@@ -146,10 +146,6 @@ struct lsmps_order3 : lsmps_defaults<2> {
   using op = mpskit::op::lsmps_a<2, 3, kernel>;
 };
 
-/// Tanaka's dam break with the LSMPS scheme at L = h0/N with the wall variant `walls`.
-/// Besides the front: the probe at (195, 5) mm sampled every step (cases::measure_impact; window 10 ms after
-/// the probe gets wet, 2 ms moving average, every 100 steps as Tanaka sampled), NaN when the run did not
-/// reach the end of the window.
 /// The LSMPS runs' opt-in collision and shifting options (--lsmps-collision, ...); tag() names them in a
 /// configuration ("" when all are off).
 struct lsmps_extras {
@@ -163,6 +159,10 @@ struct lsmps_extras {
   }
 };
 
+/// Tanaka's dam break with the LSMPS scheme at L = h0/N with the wall variant `walls` and the options `x`.
+/// Besides the front: the probe at (195, 5) mm sampled every step (cases::measure_impact; window 10 ms after
+/// the probe gets wet, 2 ms moving average, every 100 steps as Tanaka sampled), NaN when the run did not
+/// reach the end of the window.
 template <class Scene>
 bench::configuration make_lsmps(int order, int N, double T_end, const std::vector<cases::front_series>* data,
                                 const cases::tanaka_wall_variant& walls, const lsmps_extras& x) {

@@ -17,7 +17,8 @@
 // Until then: --walls two_point_wall_only_active_set --collision 0 --no-shift-isolated.
 //   --L      particle diameter in mm (default 5)
 //   --T      end time in T (default 3.2: the first impact at the probe and its 10 ms window)
-//   --walls  a name of cases::tanaka_wall_variants: parent_gradient (the library's defaults) | neumann_points |
+//   --walls  a name of cases::tanaka_wall_variants: parent_gradient (the library's default rows; with
+//            --collision 0 --no-shift-isolated the library's defaults) | neumann_points |
 //            two_point_wall_only | two_point_wall_only_active_set | ..._own_loop | ..._own_loop_copies |
 //            two_point_wall_only_active_set_own_loop_copies_conditioned (through the impact at all 31 spacings
 //            3-6 mm, docs/lsmps_scheme.md "Ill-conditioned fits") | ..._conditioned_limited (2 mm too; default) |
@@ -32,7 +33,9 @@
 //            walls, 375 mm with --obstacle; over 300 mm the far-wall run-up throws particles out from t ≈ 0.37 s,
 //            T ≈ 5.1, which are removed and counted: tanaka_dam_break_config::remove_outside)
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
-//   --full   the paper's L = 1 mm (19 969 particles). Not expected to get through yet: at 2 mm the two-point
+//   --full   the paper's L = 1 mm (19 969 particles). Measured before 2026-12-03, with the defaults of that time
+//            (add --collision 0 --no-shift-isolated, or --no-collide-isolated --no-shift-isolated with
+//            --collision, to repeat these): at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with
 //            two_point_wall_only_active_set_own_loop_copies_conditioned_limited 2 mm gets through the impact,
 //            1.5 mm fails in it (T = 2.82) and 1 mm before it (T = 2.58, PPE not converging after 46 guard
@@ -171,8 +174,10 @@ int main(int argc, char** argv) {
     p.collision.isolated = collide_isolated;
     p.shift_isolated_penalty = shift_isolated;
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
-                "walls '%s', to T = %g\n",
-                obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(), T_end);
+                "walls '%s', collision alpha1 %g%s%s, to T = %g\n",
+                obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(),
+                collision, collide_isolated ? " (isolated particles too)" : "",
+                shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end);
     const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(cfg, T_end, p, true, observe);
     progress.finish();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -169,7 +169,7 @@ inline const tanaka_wall_variant& tanaka_wall_variant_named(const std::string& n
 }
 
 /// The wall options that, with the collision stage and both isolated-particle options (tanaka_impact_params), carry
-/// Tanaka's dam break at every spacing measured (6-2 mm) and the obstacle case through the far-wall impact with no
+/// Tanaka's dam break at every spacing measured (6-1.5 mm) and the obstacle case through the far-wall impact with no
 /// guard activation (docs/validation.md): two-point copy rows, wall-only shifting, the active set, the own-loop
 /// guard with the copies, conditioned fits and the limited shifted velocity (docs/lsmps_scheme.md).
 inline constexpr const char* tanaka_impact_walls = "two_point_wall_only_active_set_own_loop_copies_conditioned_limited";

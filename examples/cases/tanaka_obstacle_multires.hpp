@@ -40,7 +40,6 @@ inline scheme::lsmps_params<2> obstacle_params(const std::string& walls = obstac
   return p;
 }
 
-
 /// Sets p's target diameter to L/ratio within r0 of the block's centre, a linear ramp to 1.05 L at r1 (ours: the
 /// paper's Fig. 27b is not in the text; 1.05 L so that coarse particles outside never merge), and
 /// wall_contact = 0.75 (a split beside a wall keeps a child in contact, docs/resolution.md). L = c.L. Refused
