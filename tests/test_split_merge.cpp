@@ -1906,41 +1906,9 @@ TEST_SUITE("dam_break_multires") {
     CHECK(single.guarded == 0);
   }
 
-  TEST_CASE("dam break with the 10 x 10 mm obstacle (§5.6.2) refined 2:1 around the block: over the block to T = 2.4 within the hard-case bounds") {
-    // Issue #9's [dam_break_multires] obstacle case and a hard case (splitting at the block's corners, at the
-    // floor and at the free surface of the surge running over it), the main example's multi-resolution run as it
-    // was until 2026-12-03 (examples/multires_dam_break.cpp; now to T = 3.8 with other options, next test): L = 5 mm, L* = 2.5 mm within 30 mm of the block's centre (0, 5) mm, a
-    // linear ramp to 1.05 L at 60 mm (ours), Neumann-point wall rows + wall-only shifting + the active set (with
-    // the library's default rows the case fails at t ≈ 0.11 s even at single resolution, docs/lsmps_scheme.md).
-    // Asserted: the issue's hard-case bounds (no failure, max |u| ≤ 5 √(gH), min r_ij/L_ij ≥ 0.3, c ≤ 2) and no
-    // guard activation, the zone refined to 2.5 mm and merged back behind the surge, volume to rounding. Not
-    // asserted here: the front against single resolution. Against the 2.5 mm single run it is within 3.7 %
-    // (RMS 1.8 %), but that run costs 150 s; against the 5 mm run it differs by up to 6.3 % (T = 1.75, where the
-    // coarse run lags both; docs/resolution.md "The main example"). T = 2.4: past it the 4 and 5 mm runs shoot
-    // particles at the far wall (issue #7's open wall-corner failure).
-    const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(0.005);
-    scheme::lsmps_params<2> p = cases::obstacle_params();
-    cases::refine_around_block(p, c, 2.0, 0.03, 0.06);
-    const double Lf = 0.5 * c.L;
-    run_max_packing maxima;
-    const auto r = cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, 2.4, p, false, maxima);
-    const double umax = r.u_max, cmax = maxima.c;
-    const double u_bound = 5.0 * std::sqrt(c.g * c.column_height);
-    std::printf("dam_break_multires obstacle: to T = 2.4, particles %ld -> %ld, L_min %.2f mm, splits %ld merges %ld, "
-                "volume change %.1e, guard %ld, max |u| %.2f m/s (bound %.2f), min r_ij/L_ij %.3f, max c %.3f, steps %ld, %.1f s\n",
-                static_cast<long>(r.particles), static_cast<long>(r.particles_end), r.L_min * 1e3, r.splits, r.merges,
-                r.volume_change, r.guarded, umax, u_bound, r.min_pair_ratio, cmax, r.steps, r.wall_seconds);
-    CHECK(umax <= u_bound);            // the issue's explosion bound, 5 √(gH) = 7.8 m/s
-    CHECK(r.min_pair_ratio >= 0.3);    // the issue's clustering bound
-    CHECK(cmax <= 2.0);                // the issue's packing bound
-    CHECK(r.guarded == 0);             // no particle crossed a wall (the block's corners included)
-    CHECK(r.splits > 100);             // the surge was refined at the block ...
-    CHECK(r.merges > 20);              // ... and merged back behind it
-    CHECK(r.L_min <= Lf * (1.0 + 1e-12));
-    CHECK(std::abs(r.volume_change) <= 1e-13);
-  }
-
   TEST_CASE("the main example's multi-resolution run: the obstacle case through the far-wall impact (T = 3.8) within the hard-case bounds") {
+    // Issue #9's [dam_break_multires] obstacle case and a hard case (splitting at the block's corners, at the
+    // floor, at the free surface of the surge running over it, and in the far-wall impact):
     // examples/multires_dam_break.cpp with its default arguments, the multi-resolution run alone: L = 5 mm,
     // L* = 2.5 mm within 30 mm of the block's centre, a ramp to 1.05 L at 60 mm, to T = 3.8, the options that
     // carry it through the surge's impact on the far wall (cases::tanaka_impact_walls, the collision stage at

@@ -20,7 +20,8 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// The wall options of the obstacle case's test (label dam_break_multires, to T = 2.4) and the reporter's default
+/// The wall options of the speed-against-error reporter's default (and of label dam_break_multires's T = 2.4 test
+/// until 2026-12-03)
 /// (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0; docs/lsmps_scheme.md deviations 11 and
 /// 13); the main example's default until 2026-12-03 (now tanaka_impact_params(), cases/tanaka_dam_break_run.hpp). With the library's default rows
 /// the obstacle case fails at t ≈ 0.11 s even at single resolution.
