@@ -937,7 +937,7 @@ tanaka_run measure_tanaka_dam_break(const cases::tanaka_dam_break_config& c, dou
   out.rho_g_h = r.rho_g_h;
   out.guarded = r.guarded;
   out.min_pair = r.min_pair_ratio;
-  out.impact = cases::measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
+  out.impact = cases::far_wall_impact(r);
   out.T_of_t = std::sqrt(2.0 * c.g / c.column_width);
   out.active_set_rows = r.active_set_rows;
   out.active_set_unfinished = r.active_set_unfinished;

@@ -168,6 +168,12 @@ inline const tanaka_wall_variant& tanaka_wall_variant_named(const std::string& n
   fail(who, ": wall variant '", name, "' (accepted: ", accepted, ")");
 }
 
+/// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: a 10 ms window from its
+/// first wet sample, a 2 ms filter (as the example tanaka_dam_break; measure_impact).
+inline impact_measures far_wall_impact(const tanaka_dam_break_result& r) {
+  return measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
+}
+
 /// The wall options that, with the collision stage and both isolated-particle options (tanaka_impact_params), carry
 /// Tanaka's dam break at every spacing measured (6-1.5 mm) and the obstacle case through the far-wall impact with no
 /// guard activation (docs/validation.md): two-point copy rows, wall-only shifting, the active set, the own-loop

@@ -27,12 +27,6 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
 /// the obstacle case fails at t ≈ 0.11 s even at single resolution.
 inline constexpr const char* obstacle_walls = "neumann_points_wall_only_active_set";
 
-/// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: a 10 ms window from its
-/// first wet sample, a 2 ms filter (as the example tanaka_dam_break; measure_impact).
-inline impact_measures far_wall_impact(const tanaka_dam_break_result& r) {
-  return measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
-}
-
 /// The obstacle runs' parameters with the wall variant `walls` (a name of tanaka_wall_variants; unknown names
 /// are refused).
 inline scheme::lsmps_params<2> obstacle_params(const std::string& walls = obstacle_walls) {
