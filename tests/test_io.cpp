@@ -1,11 +1,12 @@
 // io/: base64 and checksum vectors, .vtu/.pvd round trips through the project's reader (both encodings,
 // 2D and 3D, every field shape) and through meshio and VTK's Python reader when present, malformed files refused, CSV series,
-// progress and summary formatting (suite "io"); checkpoint round trip, bitwise restart and refusal of
+// progress and summary formatting, the largest connected body (suite "io"); checkpoint round trip, bitwise restart and refusal of
 // truncated, corrupted, wrong-version and mismatched checkpoints (suite "checkpoint").
 #include <doctest/doctest.h>
 
 #include "support/support.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -18,6 +19,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "mpskit/core/state.hpp"
@@ -677,6 +679,122 @@ TEST_SUITE("io") {
     std::string header;
     std::getline(in, header);
     CHECK(header == "time [s],particles [1],volume [m^2],mass [kg/m],kinetic_energy [J/m],potential_energy [J/m]");
+  }
+
+  TEST_CASE("io: largest_body keeps the bulk and its chains, leaves detached clusters out, and matches brute force") {
+    // A 6 × 6 block of unit diameters at integer points, a chain running right from it at spacing 1.4 (< link 1.5:
+    // linked), and a 2 × 2 cluster beyond the chain's tip at 1.6 (> 1.5: detached, as spray is).
+    std::vector<vec<2>> p;
+    for (int j = 0; j < 6; ++j)
+      for (int i = 0; i < 6; ++i) p.emplace_back(i, j);
+    const int chain = 5;
+    for (int k = 1; k <= chain; ++k) p.emplace_back(5.0 + 1.4 * k, 0.0);
+    const double tip = 5.0 + 1.4 * chain;
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) p.emplace_back(tip + 1.6 + i, j);
+    const index_t n = static_cast<index_t>(p.size());
+    points<2> x(2, n);
+    for (index_t i = 0; i < n; ++i) x.col(i) = p[static_cast<std::size_t>(i)];
+    Eigen::VectorXd d = Eigen::VectorXd::Ones(n);
+    const auto all = [](index_t) { return true; };
+    auto front = [&](const std::vector<char>& m) {
+      double f = -1e300;
+      for (index_t i = 0; i < n; ++i)
+        if (m[static_cast<std::size_t>(i)]) f = std::max(f, x(0, i));
+      return f;
+    };
+    std::vector<char> m = io::largest_body(x, d, n, all);
+    CHECK(std::count(m.begin(), m.end(), 1) == 36 + chain);
+    CHECK(front(m) == tip);  // the chain's tip, not the cluster 1.6 beyond it
+    // With link 1.7 the cluster joins; with 1.3 the chain does not (its first link is 1.4).
+    CHECK(front(io::largest_body(x, d, n, all, 1.7)) == doctest::Approx(tip + 2.6).epsilon(1e-15));
+    m = io::largest_body(x, d, n, all, 1.3);
+    CHECK(std::count(m.begin(), m.end(), 1) == 36);
+    // The link scales with (d_i + d_j)/2: halving every diameter is link 0.75 in these units.
+    // No pair is linked then, every particle is a body of its own, and the tie goes to particle 0.
+    m = io::largest_body(x, Eigen::VectorXd(0.5 * d), n, all);
+    CHECK(std::count(m.begin(), m.end(), 1) == 1);
+    CHECK(m[0] == 1);
+    // A particle that is not counted neither belongs nor bridges: drop the chain's first particle.
+    m = io::largest_body(x, d, n, [&](index_t i) { return i != 36; });
+    CHECK(std::count(m.begin(), m.end(), 1) == 36);
+    CHECK(m[36] == 0);
+    // The body with the largest Σ d^D wins, not the most particles: the 4-particle cluster at diameter 4
+    // (Σ d² = 64, its members 1 apart and linked) against the block's 36 + the chain's 5 (41).
+    Eigen::VectorXd big = d;
+    big.tail(4).setConstant(4.0);
+    const index_t far_cluster = 36 + chain;
+    // Diameter 4 also links the cluster to the chain's tip (1.6 < 1.5 · 2.5): move it away first.
+    points<2> y = x;
+    for (index_t i = far_cluster; i < n; ++i) y(0, i) += 100.0;
+    m = io::largest_body(y, big, n, all);
+    CHECK(std::count(m.begin(), m.end(), 1) == 4);
+    CHECK(m[static_cast<std::size_t>(far_cluster)] == 1);
+    // Ties go to the body holding the lowest index: two equal blocks.
+    points<2> two(2, 8);
+    for (int k = 0; k < 4; ++k) {
+      two.col(k) << k % 2, k / 2;
+      two.col(4 + k) << 10.0 + k % 2, k / 2;
+    }
+    m = io::largest_body(two, Eigen::VectorXd::Ones(8), 8, all);
+    CHECK(std::vector<char>(m.begin(), m.begin() + 4) == std::vector<char>(4, 1));
+    CHECK(std::vector<char>(m.begin() + 4, m.end()) == std::vector<char>(4, 0));
+    // Nothing counted: no member. Bad input refused.
+    m = io::largest_body(x, d, n, [](index_t) { return false; });
+    CHECK(std::count(m.begin(), m.end(), 1) == 0);
+    check_refused([&] { io::largest_body(x, d, n + 1, all); }, {"n = ", "exceeds"});
+    check_refused([&] { io::largest_body(x, d, n, all, 0.0); }, {"link = 0"});
+    Eigen::VectorXd bad = d;
+    bad[3] = 0.0;
+    check_refused([&] { io::largest_body(x, bad, n, all); }, {"particle 3"});
+
+    // Random clouds in 2D and 3D with diameters in [0.5, 1.5]: the grid's components equal those of an all-pairs
+    // search (breadth-first over every pair), so no link across cells is missed.
+    std::mt19937_64 rng(test_seed());
+    auto compare = [&]<int D>(std::integral_constant<int, D>, int count, double box) {
+      std::uniform_real_distribution<double> u(0.0, box), ud(0.5, 1.5);
+      points<D> z(D, count);
+      Eigen::VectorXd dz(count);
+      for (int i = 0; i < count; ++i) {
+        for (int a = 0; a < D; ++a) z(a, i) = u(rng) - 0.5 * box;  // negative coordinates too
+        dz[i] = ud(rng);
+      }
+      const auto counted = [](index_t i) { return i % 7 != 3; };
+      const std::vector<char> got = io::largest_body(z, dz, count, counted);
+      std::vector<int> comp(static_cast<std::size_t>(count), -1);
+      std::vector<double> vol;
+      for (int s0 = 0; s0 < count; ++s0) {
+        if (!counted(s0) || comp[static_cast<std::size_t>(s0)] >= 0) continue;
+        const int c = static_cast<int>(vol.size());
+        vol.push_back(0.0);
+        std::vector<int> todo{s0};
+        comp[static_cast<std::size_t>(s0)] = c;
+        while (!todo.empty()) {
+          const int i = todo.back();
+          todo.pop_back();
+          vol[static_cast<std::size_t>(c)] += std::pow(dz[i], D);
+          for (int j = 0; j < count; ++j)
+            if (counted(j) && comp[static_cast<std::size_t>(j)] < 0 &&
+                (z.col(i) - z.col(j)).norm() < 1.5 * 0.5 * (dz[i] + dz[j])) {
+              comp[static_cast<std::size_t>(j)] = c;
+              todo.push_back(j);
+            }
+        }
+      }
+      const int best = static_cast<int>(std::max_element(vol.begin(), vol.end()) - vol.begin());
+      int members = 0, mismatches = 0;
+      for (int i = 0; i < count; ++i) {
+        const bool want = comp[static_cast<std::size_t>(i)] == best;
+        members += want;
+        mismatches += want != (got[static_cast<std::size_t>(i)] != 0);
+      }
+      CHECK(mismatches == 0);
+      CHECK(members > 1);        // the clouds' density gives bodies of several particles ...
+      CHECK(vol.size() > 2);     // ... and several bodies, so the choice is tested
+      MESSAGE("largest_body ", D, "D: ", vol.size(), " bodies, the largest has ", members, " of ", count);
+    };
+    compare(std::integral_constant<int, 2>{}, 400, 30.0);
+    compare(std::integral_constant<int, 3>{}, 400, 10.0);
   }
 
   TEST_CASE("io: progress prints a plain row per interval, or one line in place on a terminal") {
