@@ -21,6 +21,8 @@ namespace mpskit::cases {
 /// What one run measured.
 struct tanaka_dam_break_result {
   std::vector<double> T, Z;     ///< front samples h* (Z) at T = t* every 0.05 (the first at or after each multiple)
+  /// The same front over the largest connected body only (io::largest_body, link 1.5): spray clusters left out.
+  std::vector<double> Z_body;
   std::vector<double> probe_t, probe_p;  ///< time (s) and pressure (Pa) at the probe after every step; NaN: dry
   double p_min = 0.0;           ///< lowest fluid pressure over all steps (Pa)
   double p_min_copies = 0.0;    ///< lowest imaginary-copy pressure (auxiliary unknowns of the wall rows, Pa)
@@ -266,8 +268,11 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine one.
       const Eigen::VectorXd d = sim.state().template get<field::volume>().head(n).cwiseSqrt();
       r.T.push_back(T);
-      r.Z.push_back(db.front_star(sim.state().x(), d, n,
-                                  [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; }));
+      const auto counted = [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; };
+      r.Z.push_back(db.front_star(sim.state().x(), d, n, counted));
+      const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);
+      r.Z_body.push_back(
+          db.front_star(sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; }));
     }
   } catch (const mpskit::error& e) {
     if (!catch_failure) throw;

@@ -64,11 +64,17 @@ struct front_difference {
 };
 
 /// The run's front at the reference's sample times T ≤ T_limit, linear between its own samples (both sample at the
-/// first step at or after each multiple of 0.05 T, so their times differ by up to a step).
+/// first step at or after each multiple of 0.05 T, so their times differ by up to a step). `series`: the front
+/// over every counted particle (Z, default) or over the largest connected body (Z_body, spray left out).
 inline front_difference compare_fronts(const tanaka_dam_break_result& run, const tanaka_dam_break_result& ref,
-                                       double T_limit = std::numeric_limits<double>::infinity()) {
+                                       double T_limit = std::numeric_limits<double>::infinity(),
+                                       std::vector<double> tanaka_dam_break_result::*series = &tanaka_dam_break_result::Z) {
   const std::vector<double>& T = run.T;
-  const std::vector<double>& Z = run.Z;
+  const std::vector<double>& Z = run.*series;
+  const std::vector<double>& Z_ref = ref.*series;
+  if (Z.size() != T.size() || Z_ref.size() != ref.T.size())
+    fail("compare_fronts: a front series has ", Z.size(), " and ", Z_ref.size(), " samples for ", T.size(), " and ",
+         ref.T.size(), " times");
   front_difference d;
   double sum = 0.0;
   for (std::size_t k = 0; k < ref.T.size() && T.size() >= 2; ++k) {
@@ -77,7 +83,7 @@ inline front_difference compare_fronts(const tanaka_dam_break_result& run, const
     const std::size_t j = std::clamp<std::size_t>(
         static_cast<std::size_t>(std::upper_bound(T.begin(), T.end(), t) - T.begin()), 1, T.size() - 1);
     const double a = (t - T[j - 1]) / (T[j] - T[j - 1]);
-    const double e = std::abs(((1.0 - a) * Z[j - 1] + a * Z[j]) / ref.Z[k] - 1.0);
+    const double e = std::abs(((1.0 - a) * Z[j - 1] + a * Z[j]) / Z_ref[k] - 1.0);
     if (!std::isfinite(e)) continue;
     sum += e * e;
     if (!(e <= d.max)) d.max = e, d.T_max = t;  // also the first (d.max NaN)
