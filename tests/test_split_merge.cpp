@@ -1851,7 +1851,8 @@ TEST_SUITE("dam_break_multires") {
     // single-resolution dam break fails at T ≈ 1.6, docs/lsmps_scheme.md; until 2026-12-03 this test ran to
     // T = 2.8 with copy_two_point and wall-only shifting, whose multi-resolution run fails at T ≈ 3.2).
     // Measured (2026-12-03, -O3 harness and this test, the same numbers): largest front difference 2.0 % (T = 2.90),
-    // RMS 0.49 % up to the single run's impact (T = 2.953);
+    // RMS 0.49 % up to the single run's impact (T = 2.953), the same over the largest connected body (2026-12-04:
+    // neither run has spray ahead of its surge before the impact);
     // multi 4.72 sqrt(gH), closest pair 0.457 L, single 3.13 sqrt(gH), 0.486 L, no guard activation in either;
     // 548 splits, 2 merges. The impulse within 10 % is not asserted: over 10 ms from the first wet sample
     // the multi-resolution run has 14.5 Pa s against 22.6 (36 % apart), over 20 ms 48.0 against 52.6 (9 %), and
@@ -1879,7 +1880,11 @@ TEST_SUITE("dam_break_multires") {
     // Fronts compared up to the single run's first wet sample at the far-wall probe: after it both fronts are the
     // vessel's width (as the main example and the speed-against-error reporter compare them).
     const cases::front_difference d = cases::compare_fronts(multi, single, db.t_star(ms.t_arrival));
+    // The same over the largest connected body (io::largest_body: spray clusters ahead of the surge left out).
+    const cases::front_difference b =
+        cases::compare_fronts(multi, single, db.t_star(ms.t_arrival), &cases::tanaka_dam_break_result::Z_body);
     const double sqrt_gh = std::sqrt(c.g * c.column_height);
+    std::printf("dam_break_multires: body front: largest difference %.4f at T = %.2f (RMS %.4f)\n", b.max, b.T_max, b.rms);
     std::printf("dam_break_multires: to T = %.1f, %zu front samples, largest |Z_multi/Z_single - 1| = %.4f at T = %.2f (RMS %.4f); "
                 "particles %ld -> %ld (single %ld), L_min %.2f mm, splits %ld merges %ld, volume change %.1e, guard %ld / %ld, "
                 "max |u| %.2f / %.2f sqrt(gH), closest pair %.3f / %.3f L, max c %.3f, probe wet at T = %.3f / %.3f, "
@@ -1892,6 +1897,8 @@ TEST_SUITE("dam_break_multires") {
     // (Both runs throw if they fail before T_end: catch_failure is off.)
     CHECK(d.samples >= 55);         // the comparison covered the run up to the impact (T ≈ 2.95, every 0.05 T)
     CHECK(d.max <= 0.05);           // the 5 %
+    CHECK(b.samples == d.samples);  // ... and for the front over the largest body
+    CHECK(b.max <= 0.05);
     CHECK(mm.complete);             // both probes got wet and their 10 ms windows ended: the runs went through
     CHECK(ms.complete);             // the far-wall impact ...
     CHECK(db.t_star(mm.t_arrival) > 2.8);  // ... wet by the surge (it reaches the far wall at T ≈ 2.9)
