@@ -128,6 +128,9 @@ class run_cache {
   // never sees half a file.
   static void save(const std::filesystem::path& path, const std::string& key,
                    const cases::tanaka_dam_break_result& r) {
+    if (r.Z.size() != r.T.size() || r.Z_body.size() != r.T.size())
+      fail("report_obstacle_multires: ", path.string(), ": the run's front series have ", r.T.size(), " times, ",
+           r.Z.size(), " and ", r.Z_body.size(), " fronts");
     const std::filesystem::path tmp = path.string() + ".partial";
     {
       std::ofstream f(tmp);

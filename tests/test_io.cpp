@@ -749,7 +749,7 @@ TEST_SUITE("io") {
     check_refused([&] { io::largest_body(x, bad, n, all); }, {"particle 3"});
 
     // Random clouds in 2D and 3D with diameters in [0.5, 1.5]: the grid's components equal those of an all-pairs
-    // search (breadth-first over every pair), so no link across cells is missed.
+    // search (a graph search over every pair), so no link across cells is missed.
     std::mt19937_64 rng(test_seed());
     auto compare = [&]<int D>(std::integral_constant<int, D>, int count, double box) {
       std::uniform_real_distribution<double> u(0.0, box), ud(0.5, 1.5);

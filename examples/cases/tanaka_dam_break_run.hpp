@@ -267,12 +267,14 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       const auto& fl = sim.state().flags();
       // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine one.
       const Eigen::VectorXd d = sim.state().template get<field::volume>().head(n).cwiseSqrt();
-      r.T.push_back(T);
       const auto counted = [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; };
-      r.Z.push_back(db.front_star(sim.state().x(), d, n, counted));
-      const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);
-      r.Z_body.push_back(
-          db.front_star(sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; }));
+      const double Z = db.front_star(sim.state().x(), d, n, counted);
+      const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);  // may throw: push after it
+      const double Z_body =
+          db.front_star(sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; });
+      r.T.push_back(T);
+      r.Z.push_back(Z);
+      r.Z_body.push_back(Z_body);
     }
   } catch (const mpskit::error& e) {
     if (!catch_failure) throw;

@@ -1,5 +1,5 @@
 set terminal pngcairo size 900,600 font 'sans,11' noenhanced
-set output '/tmp/s47/obst/obstacle_multires_speed_error.png'
+set output 'benchmarks/results/obstacle_multires_body_ref2_T3.8/obstacle_multires_speed_error.png'
 set title 'Dam break with the obstacle, front against 2.00 mm: body_front_rms against wall time (median of runs)'
 set xlabel 'wall time (s)'
 set ylabel 'body_front_rms'
@@ -7,5 +7,5 @@ set logscale xy
 set grid
 set key top left
 set offsets graph 0.05, graph 0.05, graph 0.15, graph 0.15
-plot '/tmp/s47/obst/obstacle_multires_speed_error.png.dat' index 0 using 1:2 with linespoints pt 7 title 'single', '' index 0 using 1:2:3 with labels offset 0,1.2 notitle, \
-     '/tmp/s47/obst/obstacle_multires_speed_error.png.dat' index 1 using 1:2 with linespoints pt 7 title 'multi', '' index 1 using 1:2:3 with labels offset 0,-1.2 notitle
+plot 'benchmarks/results/obstacle_multires_body_ref2_T3.8/obstacle_multires_speed_error.png.dat' index 0 using 1:2 with linespoints pt 7 title 'single', '' index 0 using 1:2:3 with labels offset 0,1.2 notitle, \
+     'benchmarks/results/obstacle_multires_body_ref2_T3.8/obstacle_multires_speed_error.png.dat' index 1 using 1:2 with linespoints pt 7 title 'multi', '' index 1 using 1:2:3 with labels offset 0,-1.2 notitle
