@@ -13,6 +13,7 @@
 #include "mpskit/core/fields.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/core/state.hpp"
+#include "mpskit/core/union_find.hpp"
 #include "mpskit/ppe/solve.hpp"
 #include "mpskit/scheme/time_step.hpp"
 
@@ -155,6 +156,47 @@ TEST_SUITE("core") {
     const resize_report rc = s.clear_ghosts();
     CHECK(rc.ghosts_cleared == 2);
     CHECK(s.size() == 12);
+  }
+
+  TEST_CASE("core: union_find's sets are the graph's components, each rooted at its lowest index") {
+    // 200 random edges on 300 nodes, united in a shuffled order: the sets equal the components of a
+    // flood fill over the same edges, and every root is its set's smallest member whatever the order.
+    std::mt19937 rng(20261204);
+    const index_t n = 300;
+    std::vector<std::pair<index_t, index_t>> edges;
+    std::uniform_int_distribution<index_t> node(0, n - 1);
+    for (int k = 0; k < 200; ++k) edges.emplace_back(node(rng), node(rng));
+    std::vector<index_t> smallest(static_cast<std::size_t>(n), -1);  // flood fill: the lowest index per component
+    for (index_t s = 0; s < n; ++s) {
+      if (smallest[static_cast<std::size_t>(s)] >= 0) continue;
+      std::vector<index_t> todo{s};
+      smallest[static_cast<std::size_t>(s)] = s;
+      while (!todo.empty()) {
+        const index_t i = todo.back();
+        todo.pop_back();
+        for (const auto& [a, b] : edges)
+          for (const auto& [u, v] : {std::pair{a, b}, std::pair{b, a}})
+            if (u == i && smallest[static_cast<std::size_t>(v)] < 0) {
+              smallest[static_cast<std::size_t>(v)] = s;
+              todo.push_back(v);
+            }
+      }
+    }
+    for (int order = 0; order < 3; ++order) {
+      std::shuffle(edges.begin(), edges.end(), rng);
+      union_find sets(n);
+      for (const auto& [a, b] : edges) {
+        const index_t r = sets.unite(a, b);
+        CHECK(r == std::min(sets.find(a), sets.find(b)));
+        CHECK(r == sets.find(a));
+      }
+      int wrong = 0;
+      for (index_t i = 0; i < n; ++i) wrong += sets.find(i) != smallest[static_cast<std::size_t>(i)];
+      CHECK(wrong == 0);
+    }
+    union_find one(1);
+    CHECK(one.find(0) == 0);
+    CHECK(one.unite(0, 0) == 0);
   }
 
   TEST_CASE("core: for_each_particle writes each slot once; reductions are blocked and ordered") {

@@ -24,6 +24,7 @@
 #include "mpskit/core/error.hpp"
 #include "mpskit/core/fields.hpp"
 #include "mpskit/core/kinds.hpp"
+#include "mpskit/core/union_find.hpp"
 #include "mpskit/io/concepts.hpp"
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/detail/type_names.hpp"
@@ -279,8 +280,8 @@ double front_position(const State& s, int axis = 0, double offset = 0.0, kind_ma
 }
 
 /// \brief The largest connected body among the first n particles with counted(i): particles i and j are
-/// linked when |x_i − x_j| < link · (d_i + d_j)/2, and a body is a connected component of these links (union-find
-/// over a cell grid of size link · max d). Returns one flag per particle (1 for the members of the body with the
+/// linked when |x_i − x_j| < link · (d_i + d_j)/2, and a body is a connected component of these links
+/// (core/union_find.hpp over a cell grid of size link · max d). Returns one flag per particle (1 for the members of the body with the
 /// largest Σ d^D, ties by its lowest index; 0 elsewhere, and all 0 when no particle counts).
 /// Ours, for measures that should not follow spray: a surge front taken over this body ignores clusters that
 /// have left the bulk (Martin & Moyce measured the leading edge of the surge). The default link 1.5 is the merge
@@ -313,15 +314,7 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
   grid.reserve(ids.size());
   for (index_t i : ids) grid.emplace_back(cell(i), i);
   std::sort(grid.begin(), grid.end());
-  std::vector<index_t> parent(static_cast<std::size_t>(n));
-  for (index_t i : ids) parent[static_cast<std::size_t>(i)] = i;
-  auto root = [&](index_t i) {
-    while (parent[static_cast<std::size_t>(i)] != i) {
-      parent[static_cast<std::size_t>(i)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(i)])];
-      i = parent[static_cast<std::size_t>(i)];
-    }
-    return i;
-  };
+  union_find sets(n);
   for (index_t i : ids) {
     const key c = cell(i);
     std::array<int, D> off{};
@@ -333,10 +326,7 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
       for (; it != grid.end() && it->first == k; ++it) {
         const index_t j = it->second;
         if (j <= i) continue;
-        if ((x.col(i) - x.col(j)).norm() < link * 0.5 * (diam[i] + diam[j])) {
-          const index_t ri = root(i), rj = root(j);
-          if (ri != rj) parent[static_cast<std::size_t>(std::max(ri, rj))] = std::min(ri, rj);
-        }
+        if ((x.col(i) - x.col(j)).norm() < link * 0.5 * (diam[i] + diam[j])) sets.unite(i, j);
       }
       int a = 0;
       while (a < D && off[static_cast<std::size_t>(a)] == 1) off[static_cast<std::size_t>(a++)] = -1;
@@ -344,13 +334,13 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
       ++off[static_cast<std::size_t>(a)];
     }
   }
-  // Roots are the lowest index of their body (links point to the smaller root), so ties go to the lowest index.
+  // Roots are the lowest index of their body (union_find links to the smaller root), so ties go to the lowest index.
   std::vector<double> size(static_cast<std::size_t>(n), 0.0);
-  for (index_t i : ids) size[static_cast<std::size_t>(root(i))] += std::pow(diam[i], D);
+  for (index_t i : ids) size[static_cast<std::size_t>(sets.find(i))] += std::pow(diam[i], D);
   index_t best = ids.front();
   for (index_t i : ids)
-    if (root(i) == i && size[static_cast<std::size_t>(i)] > size[static_cast<std::size_t>(best)]) best = i;
-  for (index_t i : ids) member[static_cast<std::size_t>(i)] = root(i) == best;
+    if (sets.find(i) == i && size[static_cast<std::size_t>(i)] > size[static_cast<std::size_t>(best)]) best = i;
+  for (index_t i : ids) member[static_cast<std::size_t>(i)] = sets.find(i) == best;
   return member;
 }
 

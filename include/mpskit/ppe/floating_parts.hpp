@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "mpskit/core/dimension.hpp"
+#include "mpskit/core/union_find.hpp"
 #include "mpskit/ppe/concepts.hpp"
 
 namespace mpskit::ppe {
@@ -18,38 +19,22 @@ struct floating_part {
 };
 
 /// Whether every part of the graph of A + Aᵀ holds a row with dirichlet[r] ≠ 0 (nothing to pin): one
-/// union–find pass over A's entries (path halving, the smaller row index as the root), no transpose. The free-
-/// surface flows' common case, checked first by find_floating_parts: on Tanaka's obstacle dam break the
-/// transpose the search below needs took 9 % of the run (docs/performance.md "Floating parts").
+/// union–find pass over A's entries (core/union_find.hpp: path halving, the smaller row index as the root), no
+/// transpose. The free-surface flows' common case, checked first by find_floating_parts: on Tanaka's obstacle
+/// dam break the transpose the search below needs took 9 % of the run (docs/performance.md "Floating parts").
 inline bool every_part_anchored(const matrix& A, const std::vector<std::uint8_t>& dirichlet) {
   const index_t m = A.rows();
-  std::vector<index_t> root(static_cast<std::size_t>(m));
-  for (index_t r = 0; r < m; ++r) root[static_cast<std::size_t>(r)] = r;
-  const auto find = [&root](index_t r) {
-    while (root[static_cast<std::size_t>(r)] != r) {
-      root[static_cast<std::size_t>(r)] = root[static_cast<std::size_t>(root[static_cast<std::size_t>(r)])];
-      r = root[static_cast<std::size_t>(r)];
-    }
-    return r;
-  };
+  union_find sets(m);
   for (index_t r = 0; r < m; ++r) {
-    index_t a = find(r);  // r's root, kept current through the row's unions
-    for (matrix::InnerIterator it(A, r); it; ++it) {
-      if (it.index() == r) continue;
-      const index_t b = find(it.index());
-      if (a < b) {
-        root[static_cast<std::size_t>(b)] = a;
-      } else if (b < a) {
-        root[static_cast<std::size_t>(a)] = b;
-        a = b;
-      }
-    }
+    index_t a = sets.find(r);  // r's root, kept current through the row's unions
+    for (matrix::InnerIterator it(A, r); it; ++it)
+      if (it.index() != r) a = sets.link(a, sets.find(it.index()));
   }
   std::vector<std::uint8_t> anchored(static_cast<std::size_t>(m), 0);
   for (index_t r = 0; r < m; ++r)
-    if (dirichlet[static_cast<std::size_t>(r)]) anchored[static_cast<std::size_t>(find(r))] = 1;
+    if (dirichlet[static_cast<std::size_t>(r)]) anchored[static_cast<std::size_t>(sets.find(r))] = 1;
   for (index_t r = 0; r < m; ++r)
-    if (!anchored[static_cast<std::size_t>(find(r))]) return false;
+    if (!anchored[static_cast<std::size_t>(sets.find(r))]) return false;
   return true;
 }
 
