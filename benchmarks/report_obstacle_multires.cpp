@@ -95,7 +95,8 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cas
 /// that an expensive run (the 1 mm reference: hours of one core) is computed once and reused by later studies with
 /// the same configuration. One text file per run: a `key` line (the run's configuration; a file whose key differs
 /// is refused, not overwritten), the counters, the failure text, the front samples (T, Z), the far-wall probe
-/// (t, p; NaN while dry) and the body front (T, Z_body; files without it are refused), numbers at 17 digits, so a loaded run gives the metrics of the computed one bitwise.
+/// (t, p; NaN while dry) and the body front (T, Z_body; files without it are refused), numbers at 17 digits, so a
+/// loaded run gives the metrics of the computed one bitwise.
 class run_cache {
  public:
   explicit run_cache(std::string dir) : dir_(std::move(dir)) {}

@@ -281,8 +281,10 @@ double front_position(const State& s, int axis = 0, double offset = 0.0, kind_ma
 
 /// \brief The largest connected body among the first n particles with counted(i): particles i and j are
 /// linked when |x_i − x_j| < link · (d_i + d_j)/2, and a body is a connected component of these links
-/// (core/union_find.hpp over a cell grid of size link · max d). Returns one flag per particle (1 for the members of the body with the
-/// largest Σ d^D, ties by its lowest index; 0 elsewhere, and all 0 when no particle counts).
+/// (core/union_find.hpp over a cell grid of size link · max d). Returns one flag per particle (1 for the members
+/// of the body with the largest Σ d^D, ties by its lowest index; 0 elsewhere, and all 0 when no particle counts).
+/// Refused: n beyond x or diam, link not finite and > 0, a counted particle with a non-finite position or a
+/// diameter not finite and > 0, or one more than 4e18 cells from the origin (the cell index is an int64_t).
 /// Ours, for measures that should not follow spray: a surge front taken over this body ignores clusters that
 /// have left the bulk (Martin & Moyce measured the leading edge of the surge). The default link 1.5 is the merge
 /// radius α_r of Tanaka 2018 §4.4: a gap wider than half a diameter between two particles' extents separates them.
@@ -304,6 +306,11 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
   }
   if (ids.empty()) return member;
   const double h = link * d_max;  // every link is shorter than one cell
+  for (index_t i : ids)  // the cell index (and its neighbours' ±1) must fit an int64_t
+    for (int a = 0; a < D; ++a)
+      if (!(std::abs(x(a, i) / h) < 4e18))
+        fail("largest_body: particle ", i, " lies ", x(a, i), " m from the origin along axis ", a,
+             ", beyond 4e18 cells of ", h, " m (link x the largest diameter)");
   using key = std::array<std::int64_t, D>;
   auto cell = [&](index_t i) {
     key k;
