@@ -103,7 +103,7 @@ std::string fmt_mm(double L) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const scheme::lsmps_params<2> defaults = cases::tanaka_impact_params();  // the options' defaults
+  const scheme::lsmps_params<2> defaults = scheme::lsmps_impact_params<2>();  // the options' defaults
   double L_mm = 5.0, ratio = 2.0, T_end = 3.8, r0_mm = 30.0, r1_mm = 60.0, collision = defaults.collision.alpha1;
   bool single = true, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
   bool collide_isolated_asked = false;

@@ -10,7 +10,7 @@
 //
 // Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm]
 //                         [--no-shift-isolated] [--obstacle] [--full] [--trace U] [--out DIR] [--data DIR]
-// The defaults (since 2026-12-03) are the main example's options, cases::tanaka_impact_params(): the wall variant
+// The defaults (since 2026-12-03) are the main example's options, scheme::lsmps_impact_params<2>(): the wall variant
 // two_point_wall_only_active_set_own_loop_copies_conditioned_limited, the collision stage at alpha1 0.5 with
 // isolated particles colliding, isolated particles in the shifting penalty (all opt-in in the library), with which
 // every spacing from 6 to 1.5 mm gets through the far-wall impact with no guard activation (docs/validation.md).
@@ -71,7 +71,7 @@ namespace fs = std::filesystem;
 using namespace mpskit;
 
 int main(int argc, char** argv) {
-  const scheme::lsmps_params<2> defaults = cases::tanaka_impact_params();  // the options' defaults
+  const scheme::lsmps_params<2> defaults = scheme::lsmps_impact_params<2>();  // the options' defaults
   double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = defaults.collision.alpha1, lid_mm = 0.0;
   bool trace = false, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
   bool obstacle = false, collide_isolated_asked = false;

@@ -1861,7 +1861,7 @@ TEST_SUITE("dam_break_multires") {
     // would test noise (docs/resolution.md "Dam break with splitting").
     cases::tanaka_dam_break_config c;
     c.L = 0.004;
-    scheme::lsmps_params<2> p = cases::tanaka_impact_params();
+    scheme::lsmps_params<2> p = scheme::lsmps_impact_params<2>();
     const double T_end = 3.4;
     const auto single = cases::run_tanaka_dam_break(c, T_end, p);
     const vec<2> corner(c.vessel_right, 0.0);
@@ -1927,7 +1927,7 @@ TEST_SUITE("dam_break_multires") {
     // it), the zone refined and merged back, volume to rounding. Not asserted: the front and impulse against
     // single resolution (the 2.5 mm run costs 4 minutes; the example prints them).
     const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(0.005);
-    scheme::lsmps_params<2> p = cases::tanaka_impact_params();
+    scheme::lsmps_params<2> p = scheme::lsmps_impact_params<2>();
     cases::refine_around_block(p, c, 2.0, 0.03, 0.06);
     const double Lf = 0.5 * c.L;
     run_max_packing maxima;

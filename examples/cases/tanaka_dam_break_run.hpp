@@ -176,23 +176,12 @@ inline impact_measures far_wall_impact(const tanaka_dam_break_result& r) {
   return measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
 }
 
-/// The wall options that, with the collision stage and both isolated-particle options (tanaka_impact_params), carry
-/// Tanaka's dam break at every spacing measured (6-1.5 mm) and the obstacle case through the far-wall impact with no
-/// guard activation (docs/validation.md): two-point copy rows, wall-only shifting, the active set, the own-loop
+/// The wall options that, with the collision stage and both isolated-particle options (the library's
+/// scheme::lsmps_impact_params, tested to agree with this variant in label dam_break_lsmps), carry Tanaka's dam
+/// break at every spacing measured (6-1.5 mm) and the obstacle case through the far-wall impact with no guard
+/// activation (docs/validation.md): two-point copy rows, wall-only shifting, the active set, the own-loop
 /// guard with the copies, conditioned fits and the limited shifted velocity (docs/lsmps_scheme.md).
 inline constexpr const char* tanaka_impact_walls = "two_point_wall_only_active_set_own_loop_copies_conditioned_limited";
-
-/// tanaka_impact_walls with the collision stage at alpha1 = 0.5, isolated particles colliding too, and isolated
-/// particles in the shifting penalty (docs/lsmps_scheme.md deviations 17 and 18): the main example's default options
-/// (examples/multires_dam_break.cpp). All opt-in in the library, whose defaults are the paper's.
-inline scheme::lsmps_params<2> tanaka_impact_params() {
-  scheme::lsmps_params<2> p;
-  tanaka_wall_variant_named(tanaka_impact_walls, "tanaka_impact_params").apply(p);
-  p.collision.alpha1 = 0.5;
-  p.collision.isolated = true;
-  p.shift_isolated_penalty = true;
-  return p;
-}
 
 /// Does nothing (the default observer of run_tanaka_dam_break).
 struct no_tanaka_observer {
