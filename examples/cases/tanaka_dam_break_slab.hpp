@@ -11,11 +11,13 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "cases/polygon_tank.hpp"
 #include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break.hpp"
+#include "cases/tanaka_dam_break_run.hpp"
 #include "mpskit/core/error.hpp"
 #include "mpskit/scene.hpp"
 
@@ -65,16 +67,21 @@ struct tanaka_slab_result {
   double u_max = 0.0;        ///< largest fluid |u| after any step (m/s)
   double min_pair_ratio = 1e300;  ///< smallest fluid r_ij/L_ij after any step (min_pair_ratios)
   index_t particles = 0;
-  long steps = 0, guarded = 0, left_domain = 0, active_set_unfinished = 0, collisions = 0;
+  long steps = 0, guarded = 0, left_domain = 0, active_set_unfinished = 0, active_set_rows = 0, collisions = 0;
   double wall_seconds = 0.0;
+  bool failed = false;  ///< with catch_failure: the scheme threw at T_failed (failure: its message)
+  double T_failed = std::numeric_limits<double>::quiet_NaN();
+  std::string failure;
 };
 
 /// Runs the slab to T = T_end with the scheme options `p` (the case sets ν, g, Δt_max, the blow-up bound and the
-/// removal box over the vessel's x range and the slab's y range, as set_tanaka_case_params does in 2D). A failed
-/// run throws (mpskit::error).
-template <class Scene = lsmps_defaults<3>>
+/// removal box over the vessel's x range and the slab's y range, as set_tanaka_case_params does in 2D). With
+/// catch_failure an mpskit::error of the scheme ends the run and is recorded; otherwise it propagates. `observe(sim)`
+/// is called after every step (output, progress).
+template <class Scene = lsmps_defaults<3>, class Observer = no_tanaka_observer>
 tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers, double T_end,
-                                   scheme::lsmps_params<3> p = {}) {
+                                   scheme::lsmps_params<3> p = {}, bool catch_failure = false,
+                                   Observer&& observe = {}) {
   const tanaka_slab s = make_tanaka_slab(c, layers);
   p.nu = c.mu / c.rho;
   p.rho = c.rho;
@@ -96,24 +103,33 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
   const double T_of_t = std::sqrt(2.0 * c.g / c.column_width);
   double next = 0.0;
   const auto t0 = std::chrono::steady_clock::now();
-  while (sim.time() * T_of_t < T_end) {
-    sim.step();
-    const auto& st = sim.state();
-    const index_t n = st.n_real();
-    const auto& P = st.template get<field::pressure>();
-    for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
-    if (n > 0) r.u_max = std::max(r.u_max, st.u().leftCols(n).colwise().norm().maxCoeff());
-    r.min_pair_ratio = std::min(r.min_pair_ratio, min_pair_ratios(st, p.domain).all);
-    const double T = sim.time() * T_of_t;
-    if (T < next) continue;
-    next += 0.05;
-    const auto& fl = st.flags();
-    const auto& V = st.template get<field::volume>();
-    double front = -std::numeric_limits<double>::infinity();
-    for (index_t i = 0; i < n; ++i)
-      if ((fl[static_cast<std::size_t>(i)] & flag::isolated) == 0) front = std::max(front, st.x()(0, i) + 0.5 * std::cbrt(V[i]));
-    r.T.push_back(T);
-    r.Z.push_back(front / c.column_width);
+  try {
+    while (sim.time() * T_of_t < T_end) {
+      sim.step();
+      observe(sim);
+      const auto& st = sim.state();
+      const index_t n = st.n_real();
+      const auto& P = st.template get<field::pressure>();
+      for (index_t i = 0; i < n; ++i) r.p_min = std::min(r.p_min, P[i]);
+      if (n > 0) r.u_max = std::max(r.u_max, st.u().leftCols(n).colwise().norm().maxCoeff());
+      r.min_pair_ratio = std::min(r.min_pair_ratio, min_pair_ratios(st, p.domain).all);
+      const double T = sim.time() * T_of_t;
+      if (T < next) continue;
+      next += 0.05;
+      const auto& fl = st.flags();
+      const auto& V = st.template get<field::volume>();
+      double front = -std::numeric_limits<double>::infinity();
+      for (index_t i = 0; i < n; ++i)  // x + L_i/2 of the non-isolated fluid (L_i = cbrt V_i)
+        if ((fl[static_cast<std::size_t>(i)] & flag::isolated) == 0)
+          front = std::max(front, st.x()(0, i) + 0.5 * std::cbrt(V[i]));
+      r.T.push_back(T);
+      r.Z.push_back(front / c.column_width);
+    }
+  } catch (const mpskit::error& e) {
+    if (!catch_failure) throw;
+    r.failed = true;
+    r.T_failed = sim.time() * T_of_t;
+    r.failure = e.what();
   }
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& k = sim.counters();
@@ -121,6 +137,7 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
   r.guarded = k.guarded;
   r.left_domain = k.left_domain;
   r.active_set_unfinished = k.active_set_unfinished;
+  r.active_set_rows = k.active_set_rows;
   r.collisions = k.collisions;
   return r;
 }
