@@ -9,7 +9,8 @@
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
 // Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm]
-//                         [--no-shift-isolated] [--obstacle] [--full] [--trace U] [--slab N] [--out DIR] [--data DIR]
+//                         [--no-shift-isolated] [--obstacle] [--full] [--trace U] [--slab N [--slab-walls]]
+//                         [--out DIR] [--data DIR]
 // The defaults (since 2026-12-03) are the main example's options, scheme::lsmps_impact_params<2>(): the wall variant
 // two_point_wall_only_active_set_own_loop_copies_conditioned_limited, the collision stage at alpha1 0.5 with
 // isolated particles colliding, isolated particles in the shifting penalty (all opt-in in the library), with which
@@ -44,10 +45,10 @@
 //            28 of 65 samples, the probe noisy; 66 min on two threads; docs/lsmps_scheme.md). With the defaults
 //            (isolated particles colliding and in the penalty too) 1.5 mm reaches T = 3.2 with no guard activation
 //            (25 min on one thread, the front in the band at 27 of 65 samples; docs/validation.md); 1 mm not run.
-//   --slab   N: the 3D slab instead (cases/tanaka_dam_break_slab.hpp: the vessel extruded over N layers between
-//            slip end walls; ours) with scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's
-//            Table 2, and the flags above; a ParaView series, front.csv and a summary (docs/lsmps_scheme.md "The
-//            impact configuration": 10, 6.67 and 5 mm with 4 layers reach the far wall, Table 2 blows up at T ≈ 1)
+//   --slab   N: the 3D slab instead (cases/tanaka_dam_break_slab.hpp: the vessel extruded over N layers, periodic
+//            in y, or between two end walls with --slab-walls; ours) with scheme::lsmps_impact_params<3>() or, with
+//            --walls parent_gradient, Tanaka's Table 2, and the flags above; a ParaView series, front.csv and a
+//            summary (docs/lsmps_scheme.md "The impact configuration")
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
 //            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
@@ -81,14 +82,14 @@ namespace {
 /// scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2 (lsmps_params<3>{}); the
 /// collision and isolated-particle flags as in 2D. Writes a ParaView series every 0.25 in T and the front against the
 /// data band (front.csv), and prints a summary. Exit status 0 when the run reached T_end.
-int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, double T_end, bool table2, double collision,
-             bool collide_isolated, bool shift_isolated, const std::vector<cases::front_series>& ref,
+int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_sides sides, double T_end, bool table2,
+             double collision, bool collide_isolated, bool shift_isolated, const std::vector<cases::front_series>& ref,
              const std::string& out) {
   scheme::lsmps_params<3> p = table2 ? scheme::lsmps_params<3>{} : scheme::lsmps_impact_params<3>();
   p.collision.alpha1 = collision;
   p.collision.isolated = collide_isolated;
   p.shift_isolated_penalty = shift_isolated;
-  const cases::tanaka_slab slab = cases::make_tanaka_slab(cfg, layers);  // refuses bad input before any output
+  const cases::tanaka_slab slab = cases::make_tanaka_slab(cfg, layers, sides);  // refuses bad input before any output
   fs::create_directories(out);
   io::vtk_series vtk(fs::path(out) / "tanaka_dam_break_slab");
   io::progress_sink progress(std::cerr, 2.0);
@@ -104,20 +105,21 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, double T_end
       next_vtk += 0.25;
     }
   };
-  std::printf("mpskit: Tanaka's dam break as a 3D slab (%d layers, B = %g mm, slip end walls) with the LSMPS scheme, "
+  std::printf("mpskit: Tanaka's dam break as a 3D slab (%d layers, B = %g mm, %s) with the LSMPS scheme, "
               "L = %g mm, %lld fluid particles, %s, collision alpha1 %g%s%s, to T = %g\n",
-              layers, 1e3 * slab.B, 1e3 * cfg.L, static_cast<long long>(slab.size()),
+              layers, 1e3 * slab.B, sides == cases::slab_sides::periodic ? "periodic in y" : "end walls", 1e3 * cfg.L, static_cast<long long>(slab.size()),
               table2 ? "Tanaka's Table 2 (lsmps_params<3>{})" : "scheme::lsmps_impact_params<3>()", collision,
               collide_isolated ? " (isolated particles too)" : "",
               shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end);
-  const cases::tanaka_slab_result r = cases::run_tanaka_slab(cfg, layers, T_end, p, true, observe);
+  const cases::tanaka_slab_result r = cases::run_tanaka_slab(cfg, layers, T_end, p, sides, true, observe);
   progress.finish();
   int compared = 0, inside = 0;
   {
-    io::csv_writer csv(fs::path(out) / "front.csv", {{"T", "1"}, {"h_star", "1"}, {"band_low", "1"}, {"band_high", "1"}});
+    io::csv_writer csv(fs::path(out) / "front.csv",
+                       {{"T", "1"}, {"h_star", "1"}, {"h_star_body", "1"}, {"band_low", "1"}, {"band_high", "1"}});
     for (std::size_t k = 0; k < r.T.size(); ++k) {
       const auto [lo, hi] = cases::front_band(ref, r.T[k]);
-      csv.row({r.T[k], r.Z[k], lo, hi});
+      csv.row({r.T[k], r.Z[k], r.Z_body[k], lo, hi});
       if (std::isnan(lo)) continue;
       ++compared;
       inside += r.Z[k] >= lo && r.Z[k] <= hi;
@@ -128,12 +130,15 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, double T_end
     std::printf("  FAILED at T = %.3f (t = %.4f s): %s\n", r.T_failed, r.T_failed / T_of_t, r.failure.c_str());
   else
     std::printf("  reached T = %g (t = %.4f s) in %ld steps, %.1f s\n", T_end, T_end / T_of_t, r.steps, r.wall_seconds);
-  const double Z_max = r.Z.empty() ? std::nan("") : *std::max_element(r.Z.begin(), r.Z.end());
+  const double Z_max = r.Z_body.empty() ? std::nan("") : *std::max_element(r.Z_body.begin(), r.Z_body.end());
   std::printf("  front h/h0: %d of %d samples inside the data band (Martin & Moyce 1952, Koshizuka & Oka 1996, +-10 %%); "
-              "largest %.3f (the far wall: 4)\n",
+              "the largest connected body's at most %.3f (the far wall: 4)\n",
               inside, compared, Z_max);
-  std::printf("  lowest fluid pressure %.0f Pa = %.2f rho g H; largest speed %.2f sqrt(gH); closest fluid pair %.3f L\n",
-              r.p_min, r.p_min / r.rho_g_h, r.u_max / std::sqrt(cfg.g * cfg.column_height), r.min_pair_ratio);
+  if (r.steps > 0)
+    std::printf("  lowest fluid pressure %.0f Pa = %.2f rho g H; largest speed %.2f sqrt(gH); closest fluid pair %.3f L\n",
+                r.p_min, r.p_min / r.rho_g_h, r.u_max / std::sqrt(cfg.g * cfg.column_height), r.min_pair_ratio);
+  else  // all three are measured after a step
+    std::printf("  lowest pressure, largest speed and closest pair: not measured (no step completed)\n");
   std::printf("  wall-crossing guard activations %ld; active-set rows %ld; colliding pairs %ld; particles removed %ld\n",
               r.guarded, r.active_set_rows, r.collisions, r.left_domain);
   std::printf("  output: %s/tanaka_dam_break_slab.pvd (%ld files), front.csv\n", out.c_str(), long(vtk.files_written()));
@@ -145,13 +150,13 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, double T_end
 int main(int argc, char** argv) {
   const scheme::lsmps_params<2> defaults = scheme::lsmps_impact_params<2>();  // the options' defaults
   double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = defaults.collision.alpha1, lid_mm = 0.0, slab = 0.0;
-  bool slab_asked = false;
+  bool slab_asked = false, slab_walls = false;
   bool trace = false, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
   bool obstacle = false, collide_isolated_asked = false;
   std::string walls_name = cases::tanaka_impact_walls, data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm] "
-                         "[--no-shift-isolated] [--obstacle] [--full] [--trace U] [--slab N] [--out DIR] [--data DIR]\n",
+                         "[--no-shift-isolated] [--obstacle] [--full] [--trace U] [--slab N [--slab-walls]] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -162,6 +167,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
     else if (!std::strcmp(argv[a], "--no-collide-isolated")) collide_isolated = collide_isolated_asked = false;
     else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
+    else if (!std::strcmp(argv[a], "--slab-walls")) slab_walls = true;
     else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which would
@@ -205,12 +211,16 @@ int main(int argc, char** argv) {
       if (!(slab >= 1.0 && slab <= 1000.0 && slab == std::floor(slab)))
         fail("tanaka_dam_break: --slab ", slab, ": the number of layers must be a whole number in [1, 1000]");
       if (obstacle || trace) fail("tanaka_dam_break: --slab takes neither --obstacle nor --trace (2D only)");
+    } else if (slab_walls) {
+      fail("tanaka_dam_break: --slab-walls needs --slab N");
+    }
+    if (slab_asked) {
       const bool table2 = walls.name == "parent_gradient";
       if (!table2 && walls.name != cases::tanaka_impact_walls)
         fail("tanaka_dam_break: --slab takes --walls ", cases::tanaka_impact_walls, " (the default: the impact "
              "configuration) or parent_gradient (Tanaka's Table 2), not ", walls.name);
-      return run_slab(cfg, static_cast<int>(slab), T_end, table2, collision, collide_isolated, shift_isolated,
-                      cases::read_front_data(data), out);
+      return run_slab(cfg, static_cast<int>(slab), slab_walls ? cases::slab_sides::walls : cases::slab_sides::periodic,
+                      T_end, table2, collision, collide_isolated, shift_isolated, cases::read_front_data(data), out);
     }
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg);
     const vec<2> probe = obstacle ? db.obstacle_probe() : db.probe();

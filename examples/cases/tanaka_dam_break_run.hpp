@@ -200,6 +200,7 @@ inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config
 /// The case's part of the scheme options: ν, g, Δt_max = α_C L / √(2 g H) (α_C = p.time.courant, Tanaka's 0.1 by
 /// default), the blow-up bound max_speed = max_speed_factor √(g H) and the removal box (c.remove_outside).
 inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<2>& p) {
+  p.rho = c.rho;  // (until 2026-12-04 not set: a config with rho != 1000 ran at lsmps_params' 1000)
   p.nu = c.mu / c.rho;
   p.g << 0.0, -c.g;
   p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);

@@ -23,8 +23,8 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
 /// The wall options of the speed-against-error reporter's default (and of label dam_break_multires's T = 2.4 test
 /// until 2026-12-03)
 /// (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0; docs/lsmps_scheme.md deviations 11 and
-/// 13); the main example's default until 2026-12-03 (now scheme::lsmps_impact_params<2>()). With the library's default rows
-/// the obstacle case fails at t ≈ 0.11 s even at single resolution.
+/// 13); the main example's default until 2026-12-03 (now scheme::lsmps_impact_params<2>()). With the library's
+/// default rows the obstacle case fails at t ≈ 0.11 s even at single resolution.
 inline constexpr const char* obstacle_walls = "neumann_points_wall_only_active_set";
 
 /// The obstacle runs' parameters with the wall variant `walls` (a name of tanaka_wall_variants; unknown names

@@ -309,8 +309,8 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
   for (index_t i : ids)  // the cell index (and its neighbours' ±1) must fit an int64_t
     for (int a = 0; a < D; ++a)
       if (!(std::abs(x(a, i) / h) < 4e18))
-        fail("largest_body: particle ", i, " lies ", x(a, i), " m from the origin along axis ", a,
-             ", beyond 4e18 cells of ", h, " m (link x the largest diameter)");
+        fail("largest_body: particle ", i, " lies at ", x(a, i), " along axis ", a, ", beyond 4e18 cells of ", h,
+             " (link x the largest diameter) from the origin");
   using key = std::array<std::int64_t, D>;
   auto cell = [&](index_t i) {
     key k;

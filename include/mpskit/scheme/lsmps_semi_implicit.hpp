@@ -356,8 +356,8 @@ struct lsmps_params {
 };
 
 /// The LSMPS scheme's impact configuration (docs/lsmps_scheme.md "The impact configuration"): the opt-in
-/// deviations with which violent free-surface flows get through their impacts, on top of `p` (by default
-/// Tanaka's Table 2). The paper's defaults fail in Tanaka's dam break at T ≈ 1.6 (4 mm); with these the 2D dam
+/// deviations with which violent free-surface flows get through their impacts, written into `p` (by default
+/// Tanaka's Table 2): the ten fields below are overwritten, every other field of `p` is kept. The paper's defaults fail in Tanaka's dam break at T ≈ 1.6 (4 mm); with these the 2D dam
 /// break runs through the far-wall impact at every spacing measured (6–1.5 mm) and the obstacle case with no
 /// guard activation (docs/validation.md). Each setting is a documented deviation (docs/lsmps_scheme.md):
 /// - copy_two_point = 1: the two-point term in the wall copies' rows (gives a copy's unknown a diagonal);
