@@ -146,11 +146,12 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
       {"two_point_wall_only_active_set_own_loop_copies_conditioned_limited", "-tpocml",
        ", two-point rows + wall-only shifting + active set with copies + own-loop guard, cond1(M) <= 1e4, "
        "shifted velocity limited",
-       [](scheme::lsmps_params<2>& p) {
-         two_point_own_loop(p);
-         p.active_set_copies = true;
-         p.op.max_condition = 1e4;
-         p.shift_velocity_limit = true;
+       [](scheme::lsmps_params<2>& p) {  // the library's impact configuration without its collision settings
+         const regularize::sized_collision_params collision = p.collision;
+         const bool shift_isolated = p.shift_isolated_penalty;
+         p = scheme::lsmps_impact_params<2>(p);
+         p.collision = collision;
+         p.shift_isolated_penalty = shift_isolated;
        }},
       {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
        [](scheme::lsmps_params<2>& p) {
