@@ -107,7 +107,8 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
   };
   std::printf("mpskit: Tanaka's dam break as a 3D slab (%d layers, B = %g mm, %s) with the LSMPS scheme, "
               "L = %g mm, %lld fluid particles, %s, collision alpha1 %g%s%s, to T = %g\n",
-              layers, 1e3 * slab.B, sides == cases::slab_sides::periodic ? "periodic in y" : "end walls", 1e3 * cfg.L, static_cast<long long>(slab.size()),
+              layers, 1e3 * slab.B, sides == cases::slab_sides::periodic ? "periodic in y" : "end walls", 1e3 * cfg.L,
+              static_cast<long long>(slab.size()),
               table2 ? "Tanaka's Table 2 (lsmps_params<3>{})" : "scheme::lsmps_impact_params<3>()", collision,
               collide_isolated ? " (isolated particles too)" : "",
               shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end);

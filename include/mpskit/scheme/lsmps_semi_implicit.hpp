@@ -357,9 +357,10 @@ struct lsmps_params {
 
 /// The LSMPS scheme's impact configuration (docs/lsmps_scheme.md "The impact configuration"): the opt-in
 /// deviations with which violent free-surface flows get through their impacts, written into `p` (by default
-/// Tanaka's Table 2): the ten fields below are overwritten, every other field of `p` is kept. The paper's defaults fail in Tanaka's dam break at T ≈ 1.6 (4 mm); with these the 2D dam
-/// break runs through the far-wall impact at every spacing measured (6–1.5 mm) and the obstacle case with no
-/// guard activation (docs/validation.md). Each setting is a documented deviation (docs/lsmps_scheme.md):
+/// Tanaka's Table 2): the ten fields below are overwritten, every other field of `p` is kept. The paper's defaults
+/// fail in Tanaka's dam break at T ≈ 1.6 (4 mm); with these the 2D dam break runs through the far-wall impact at
+/// every spacing measured (6–1.5 mm) and the obstacle case with no guard activation (docs/validation.md). Each
+/// setting is a documented deviation (docs/lsmps_scheme.md):
 /// - copy_two_point = 1: the two-point term in the wall copies' rows (gives a copy's unknown a diagonal);
 /// - shift.projection = wall_only: eq. 99's projection only at walls, not at the free surface;
 /// - active_set_solves = 10 with active_set_copies: p ≥ 0 for the fluid and the wall copies (deviation 13);
@@ -370,8 +371,8 @@ struct lsmps_params {
 /// Not the default: the two-point rows worsen the Poiseuille profile (3.0 → 3.6 %) and wall-only shifting lets tanks
 /// at rest spread; the other settings were not measured on the channels, tanks and vortex, which were validated
 /// without them (each deviation's "why not the default" in docs/lsmps_scheme.md). In a 3D slab of the dam break
-/// (10–5 mm) it reaches the far-wall impact where Table 2 blows up at T ≈ 0.8–1.2 (docs/lsmps_scheme.md "The impact
-/// configuration"; label dam_break_lsmps).
+/// (periodic at 10 mm, between end walls at 10–5 mm) it reaches the far wall where Table 2 blows up at T ≈ 0.8–1.2
+/// (docs/lsmps_scheme.md "The impact configuration"; label dam_break_lsmps).
 template <int D>
 lsmps_params<D> lsmps_impact_params(lsmps_params<D> p = {}) {
   p.copy_two_point = 1.0;
