@@ -198,18 +198,27 @@ inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config
   s0.template get<field::volume>().setConstant(c.L * c.L);
   return s0;
 }
-/// The case's part of the scheme options: ν, g, Δt_max = α_C L / √(2 g H) (α_C = p.time.courant, Tanaka's 0.1 by
-/// default), the blow-up bound max_speed = max_speed_factor √(g H) and the removal box (c.remove_outside).
-inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<2>& p) {
+/// The case's part of the scheme options: ρ, ν, g (along −the last axis), Δt_max = α_C L / √(2 g H) (α_C =
+/// p.time.courant, Tanaka's 0.1 by default), the blow-up bound max_speed = max_speed_factor √(g H) and the removal
+/// box over the vessel's width [x_left, x_right] (c.remove_outside; the 2D vessel's [vessel_left, vessel_right], the
+/// 3D slab's [0, W], cases/tanaka_dam_break_slab.hpp).
+template <int D>
+void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<D>& p, double x_left,
+                            double x_right) {
   p.rho = c.rho;  // (until 2026-12-04 not set: a config with rho != 1000 ran at lsmps_params' 1000)
   p.nu = c.mu / c.rho;
-  p.g << 0.0, -c.g;
+  p.g.setZero();
+  p.g[D - 1] = -c.g;
   p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);
   p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
   if (c.remove_outside) {
-    p.remove_outside.lo[0] = c.vessel_left;
-    p.remove_outside.hi[0] = c.vessel_right;
+    p.remove_outside.lo[0] = x_left;
+    p.remove_outside.hi[0] = x_right;
   }
+}
+/// The 2D case's: the removal box over [vessel_left, vessel_right].
+inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<2>& p) {
+  set_tanaka_case_params<2>(c, p, c.vessel_left, c.vessel_right);
 }
 
 /// Runs to T = T_end. `p` carries the scheme options (copy rows, shifting, ...); the case sets the rest

@@ -102,7 +102,7 @@ struct tanaka_slab_result {
 };
 
 /// Runs the slab to T = T_end with the scheme options `p` (the case sets ρ, ν, g, Δt_max, the blow-up bound and the
-/// removal box over the vessel's x range, as set_tanaka_case_params does in 2D; the periodic y axis, or with end
+/// removal box over the vessel's x range by set_tanaka_case_params, as in 2D; the periodic y axis, or with end
 /// walls the removal over their tops). With
 /// catch_failure an mpskit::error of the scheme ends the run and is recorded; otherwise it propagates. `observe(sim)`
 /// is called after every step (output, progress).
@@ -111,23 +111,15 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
                                    scheme::lsmps_params<3> p = {}, slab_sides sides = slab_sides::periodic,
                                    bool catch_failure = false, Observer&& observe = {}) {
   const tanaka_slab s = make_tanaka_slab(c, layers, sides);
-  p.nu = c.mu / c.rho;
-  p.rho = c.rho;
-  p.g << 0.0, 0.0, -c.g;
-  p.time.dt_max = p.time.courant * c.L / std::sqrt(2.0 * c.g * c.column_height);
-  p.time.max_speed = c.max_speed_factor * std::sqrt(c.g * c.column_height);
+  set_tanaka_case_params<3>(c, p, 0.0, s.W);  // as the 2D runner, the left wall at x = 0
   if (sides == slab_sides::periodic) {
     p.domain.periodic = {false, true, false};
     p.domain.lo = vec<3>::Zero();
     p.domain.hi = vec<3>(s.W, s.B, s.H);
   }
-  if (c.remove_outside) {  // over the open side walls (x), and over the end walls' tops (y) when there are any
-    p.remove_outside.lo[0] = 0.0;
-    p.remove_outside.hi[0] = s.W;
-    if (sides == slab_sides::walls) {
-      p.remove_outside.lo[1] = 0.0;
-      p.remove_outside.hi[1] = s.B;
-    }
+  if (c.remove_outside && sides == slab_sides::walls) {  // over the end walls' tops too
+    p.remove_outside.lo[1] = 0.0;
+    p.remove_outside.hi[1] = s.B;
   }
   scheme::lsmps_state<3> s0(s.size());
   s0.x() = s.x;
