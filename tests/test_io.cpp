@@ -758,16 +758,19 @@ TEST_SUITE("io") {
     // Random clouds in 2D and 3D with diameters in [0.5, 1.5]: the grid's components equal those of an all-pairs
     // search (a graph search over every pair), so no link across cells is missed.
     std::mt19937_64 rng(test_seed());
-    auto compare = [&]<int D>(std::integral_constant<int, D>, int count, double box) {
-      std::uniform_real_distribution<double> u(0.0, box), ud(0.5, 1.5);
+    // With periodic axes (search::domain) the links use the minimum image, and the all-pairs search does too.
+    // The cloud fills the box [−box/2, box/2) (per axis).
+    auto compare = [&]<int D>(std::integral_constant<int, D>, int count, const vec<D>& box, const search::domain<D>& dom) {
+      std::uniform_real_distribution<double> u(0.0, 1.0), ud(0.5, 1.5);
       points<D> z(D, count);
       Eigen::VectorXd dz(count);
       for (int i = 0; i < count; ++i) {
-        for (int a = 0; a < D; ++a) z(a, i) = u(rng) - 0.5 * box;  // negative coordinates too
+        for (int a = 0; a < D; ++a) z(a, i) = (u(rng) - 0.5) * box[a];  // negative coordinates too
         dz[i] = ud(rng);
       }
       const auto counted = [](index_t i) { return i % 7 != 3; };
-      const std::vector<char> got = io::largest_body(z, dz, count, counted);
+      const std::vector<char> got = dom.any_periodic() ? io::largest_body(z, dz, count, counted, dom)
+                                                       : io::largest_body(z, dz, count, counted);
       std::vector<int> comp(static_cast<std::size_t>(count), -1);
       std::vector<double> vol;
       for (int s0 = 0; s0 < count; ++s0) {
@@ -781,8 +784,8 @@ TEST_SUITE("io") {
           todo.pop_back();
           vol[static_cast<std::size_t>(c)] += std::pow(dz[i], D);
           for (int j = 0; j < count; ++j)
-            if (counted(j) && comp[static_cast<std::size_t>(j)] < 0 &&
-                (z.col(i) - z.col(j)).norm() < 1.5 * 0.5 * (dz[i] + dz[j])) {
+            if (vec<D> r = z.col(i) - z.col(j); counted(j) && comp[static_cast<std::size_t>(j)] < 0 &&
+                                                (dom.minimum_image(r), r.norm() < 1.5 * 0.5 * (dz[i] + dz[j]))) {
               comp[static_cast<std::size_t>(j)] = c;
               todo.push_back(j);
             }
@@ -798,10 +801,55 @@ TEST_SUITE("io") {
       CHECK(mismatches == 0);
       CHECK(members > 1);        // the clouds' density gives bodies of several particles ...
       CHECK(vol.size() > 2);     // ... and several bodies, so the choice is tested
-      MESSAGE("largest_body ", D, "D: ", vol.size(), " bodies, the largest has ", members, " of ", count);
+      MESSAGE("largest_body ", D, "D", std::string(dom.any_periodic() ? " (periodic)" : ""), ": ", vol.size(),
+              " bodies, the largest has ", members, " of ", count);
     };
-    compare(std::integral_constant<int, 2>{}, 400, 30.0);
-    compare(std::integral_constant<int, 3>{}, 400, 10.0);
+    using in2 = std::integral_constant<int, 2>;
+    using in3 = std::integral_constant<int, 3>;
+    const vec<2> box2 = vec<2>::Constant(30.0), strip(30.0, 4.0);
+    const vec<3> box3 = vec<3>::Constant(10.0);
+    compare(in2{}, 400, box2, search::domain<2>{});
+    compare(in3{}, 400, box3, search::domain<3>{});
+    // The box as the period box: periodic in x (2D), in x and z (3D), and in y of a 30 × 4 strip, whose period
+    // holds a single cell of 1.5 · 1.5 (so the neighbour cells across it repeat).
+    const auto periodic_box = []<std::size_t D>(const std::array<bool, D>& axes, const vec<static_cast<int>(D)>& box) {
+      search::domain<static_cast<int>(D)> dom;
+      dom.periodic = axes;
+      dom.lo = -0.5 * box;
+      dom.hi = 0.5 * box;
+      return dom;
+    };
+    compare(in2{}, 400, box2, periodic_box(std::array{true, false}, box2));
+    compare(in3{}, 400, box3, periodic_box(std::array{true, false, true}, box3));
+    compare(in2{}, 60, strip, periodic_box(std::array{false, true}, strip));
+  }
+
+  TEST_CASE("io: largest_body links across a periodic side: a row cut by the box's side is one body") {
+    // Unit diameters at x = 0, 1, ..., 9 (y = 0) in the period box [−0.5, 9.5) along x: a closed ring once 9 links
+    // to 0 through its image (distance 1 < 1.5). Particles 4 and 5 not counted: without the periodic axis 0–3 and
+    // 6–9 are two bodies of 4 and a row of 7 at y = 50 (x = 20 ... 26, outside the box: wrapped for the cells, not
+    // moved) is the largest; with it 0–3 and 6–9 are one body of 8.
+    points<2> x(2, 17);
+    for (int i = 0; i < 10; ++i) x.col(i) << i, 0.0;
+    for (int i = 0; i < 7; ++i) x.col(10 + i) << 20.0 + i, 50.0;
+    const Eigen::VectorXd d = Eigen::VectorXd::Ones(17);
+    const auto cut = [](index_t i) { return i != 4 && i != 5; };
+    search::domain<2> dom;
+    dom.periodic = {true, false};
+    dom.lo = vec<2>(-0.5, 0.0);
+    dom.hi = vec<2>(9.5, 0.0);
+    std::vector<char> m = io::largest_body(x, d, 17, cut);
+    CHECK(std::count(m.begin(), m.end(), 1) == 7);
+    CHECK(m[10] == 1);
+    m = io::largest_body(x, d, 17, cut, dom);
+    CHECK(std::count(m.begin(), m.end(), 1) == 8);
+    CHECK(m[0] == 1);
+    CHECK(m[9] == 1);
+    CHECK(m[10] == 0);
+    // A periodic axis without a period is refused (search::domain::validate).
+    search::domain<2> bad = dom;
+    bad.hi[0] = bad.lo[0];
+    check_refused([&] { io::largest_body(x, d, 17, cut, bad); }, {"domain", "periodic axis 0"});
   }
 
   TEST_CASE("io: progress prints a plain row per interval, or one line in place on a terminal") {

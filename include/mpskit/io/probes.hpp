@@ -30,6 +30,7 @@
 #include "mpskit/io/detail/type_names.hpp"
 #include "mpskit/kernel/concepts.hpp"
 #include "mpskit/kernel/quadratic.hpp"
+#include "mpskit/search/domain.hpp"
 
 namespace mpskit::io {
 
@@ -281,19 +282,22 @@ double front_position(const State& s, int axis = 0, double offset = 0.0, kind_ma
 
 /// \brief The largest connected body among the first n particles with counted(i): particles i and j are
 /// linked when |x_i − x_j| < link · (d_i + d_j)/2, and a body is a connected component of these links
-/// (core/union_find.hpp over a cell grid of size link · max d). Returns one flag per particle (1 for the members
-/// of the body with the largest Σ d^D, ties by its lowest index; 0 elsewhere, and all 0 when no particle counts).
-/// Refused: n beyond x or diam, link not finite and > 0, a counted particle with a non-finite position or a
-/// diameter not finite and > 0, or one more than 4e18 cells from the origin (the cell index is an int64_t).
+/// (core/union_find.hpp over a cell grid of size link · max d). On the periodic axes of `dom` the distance is the
+/// minimum image (search::domain), so a body that crosses the period box's side is one body. Returns one flag per
+/// particle (1 for the members of the body with the largest Σ d^D, ties by its lowest index; 0 elsewhere, and all 0
+/// when no particle counts). Refused: n beyond x or diam, link not finite and > 0, a bad domain, a counted particle
+/// with a non-finite position or a diameter not finite and > 0, or one more than 4e18 cells from the origin along
+/// a non-periodic axis (the cell index is an int64_t).
 /// Ours, for measures that should not follow spray: a surge front taken over this body ignores clusters that
 /// have left the bulk (Martin & Moyce measured the leading edge of the surge). The default link 1.5 is the merge
 /// radius α_r of Tanaka 2018 §4.4: a gap wider than half a diameter between two particles' extents separates them.
 template <int D, class Counted>
 std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, index_t n, const Counted& counted,
-                               double link = 1.5) {
+                               const search::domain<D>& dom, double link = 1.5) {
   if (n < 0 || n > x.cols() || n > diam.size())
     fail("largest_body: n = ", n, " exceeds the positions (", x.cols(), ") or diameters (", diam.size(), ")");
   if (!(link > 0.0) || !std::isfinite(link)) fail("largest_body: link = ", link, ": must be finite and > 0");
+  dom.validate();
   std::vector<char> member(static_cast<std::size_t>(n), 0);
   std::vector<index_t> ids;
   double d_max = 0.0;
@@ -305,16 +309,33 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
     d_max = std::max(d_max, diam[i]);
   }
   if (ids.empty()) return member;
-  const double h = link * d_max;  // every link is shorter than one cell
+  // Cells: size h = link · max d on the open axes (every link is shorter than one cell); on a periodic axis m cells
+  // of P/m >= h across the period (m >= 1; with m < 3 the neighbour cells repeat, which only repeats checks).
+  const double h = link * d_max;
+  std::array<double, D> cell_size{};
+  std::array<std::int64_t, D> cells{};
+  for (int a = 0; a < D; ++a) {
+    const auto as = static_cast<std::size_t>(a);
+    cells[as] = dom.periodic[as] ? std::max<std::int64_t>(1, static_cast<std::int64_t>(dom.period(a) / h)) : 0;
+    cell_size[as] = dom.periodic[as] ? dom.period(a) / static_cast<double>(cells[as]) : h;
+  }
   for (index_t i : ids)  // the cell index (and its neighbours' ±1) must fit an int64_t
     for (int a = 0; a < D; ++a)
-      if (!(std::abs(x(a, i) / h) < 4e18))
+      if (!dom.periodic[static_cast<std::size_t>(a)] && !(std::abs(x(a, i) / h) < 4e18))
         fail("largest_body: particle ", i, " lies at ", x(a, i), " along axis ", a, ", beyond 4e18 cells of ", h,
              " (link x the largest diameter) from the origin");
   using key = std::array<std::int64_t, D>;
   auto cell = [&](index_t i) {
+    const vec<D> y = dom.wrap(x.col(i));
     key k;
-    for (int a = 0; a < D; ++a) k[static_cast<std::size_t>(a)] = static_cast<std::int64_t>(std::floor(x(a, i) / h));
+    for (int a = 0; a < D; ++a) {
+      const auto as = static_cast<std::size_t>(a);
+      if (dom.periodic[as])  // in [0, m): rounding may put a wrapped y[a] at the box's top
+        k[as] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor((y[a] - dom.lo[a]) / cell_size[as])),
+                                         0, cells[as] - 1);
+      else
+        k[as] = static_cast<std::int64_t>(std::floor(y[a] / h));
+    }
     return k;
   };
   std::vector<std::pair<key, index_t>> grid;
@@ -326,14 +347,20 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
     const key c = cell(i);
     std::array<int, D> off{};
     off.fill(-1);
-    while (true) {  // the 3^D cells around i's
+    while (true) {  // the 3^D cells around i's (across the period on periodic axes)
       key k = c;
-      for (int a = 0; a < D; ++a) k[static_cast<std::size_t>(a)] += off[static_cast<std::size_t>(a)];
+      for (int a = 0; a < D; ++a) {
+        const auto as = static_cast<std::size_t>(a);
+        k[as] += off[as];
+        if (dom.periodic[as]) k[as] = (k[as] % cells[as] + cells[as]) % cells[as];
+      }
       auto it = std::lower_bound(grid.begin(), grid.end(), std::make_pair(k, index_t{-1}));
       for (; it != grid.end() && it->first == k; ++it) {
         const index_t j = it->second;
         if (j <= i) continue;
-        if ((x.col(i) - x.col(j)).norm() < link * 0.5 * (diam[i] + diam[j])) sets.unite(i, j);
+        vec<D> r = x.col(i) - x.col(j);
+        dom.minimum_image(r);
+        if (r.norm() < link * 0.5 * (diam[i] + diam[j])) sets.unite(i, j);
       }
       int a = 0;
       while (a < D && off[static_cast<std::size_t>(a)] == 1) off[static_cast<std::size_t>(a++)] = -1;
@@ -349,6 +376,13 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
     if (sets.find(i) == i && size[static_cast<std::size_t>(i)] > size[static_cast<std::size_t>(best)]) best = i;
   for (index_t i : ids) member[static_cast<std::size_t>(i)] = sets.find(i) == best;
   return member;
+}
+
+/// largest_body without periodic axes.
+template <int D, class Counted>
+std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, index_t n, const Counted& counted,
+                               double link = 1.5) {
+  return largest_body(x, diam, n, counted, search::domain<D>{}, link);
 }
 
 }  // namespace mpskit::io
