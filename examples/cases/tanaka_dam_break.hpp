@@ -89,6 +89,21 @@ struct tanaka_dam_break_config {
   }
 };
 
+/// Surge front h (m) = max over the first n particles with counted(i) of x_i + L_i/2 along the first axis, minus
+/// x_left (the left wall); NaN when no particle is counted. For the 2D case (tanaka_dam_break::front) and the 3D slab
+/// (cases/tanaka_dam_break_slab.hpp).
+template <int D, class Counted>
+double tanaka_surge_front(const points<D>& pos, const Eigen::VectorXd& diam, index_t n, const Counted& counted,
+                          double x_left) {
+  if (n > pos.cols() || n > diam.size())
+    fail("tanaka_surge_front: n = ", n, " exceeds the positions (", pos.cols(), ") or diameters (", diam.size(),
+         ")");
+  double f = -std::numeric_limits<double>::infinity();
+  for (index_t i = 0; i < n; ++i)
+    if (counted(i)) f = std::max(f, pos(0, i) + 0.5 * diam[i]);
+  return std::isfinite(f) ? f - x_left : std::nan("");
+}
+
 /// The dam break set-up: walls, fluid particles, probe and front helpers.
 struct tanaka_dam_break {
   tanaka_dam_break_config config;   ///< the numbers it was built from
@@ -119,13 +134,7 @@ struct tanaka_dam_break {
   /// NaN when no particle is counted. counted(i): non-isolated real fluid (c_i ≥ α_c).
   template <class Counted>
   double front(const points<2>& pos, const Eigen::VectorXd& diam, index_t n, const Counted& counted) const {
-    if (n > pos.cols() || n > diam.size())
-      fail("tanaka_dam_break::front: n = ", n, " exceeds the positions (", pos.cols(), ") or diameters (",
-           diam.size(), ")");
-    double f = -std::numeric_limits<double>::infinity();
-    for (index_t i = 0; i < n; ++i)
-      if (counted(i)) f = std::max(f, pos(0, i) + 0.5 * diam[i]);
-    return std::isfinite(f) ? f - config.vessel_left : std::nan("");
+    return tanaka_surge_front(pos, diam, n, counted, config.vessel_left);
   }
   /// h* = h/h0 (Fig. 26a; Z of cases/dam_break.hpp).
   template <class Counted>

@@ -18,8 +18,26 @@
 
 namespace mpskit::cases {
 
+/// Counters both dam-break runners report (the 2D run and the 3D slab, cases/tanaka_dam_break_slab.hpp).
+struct tanaka_run_counts {
+  long steps = 0, guarded = 0;
+  long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
+  long collisions = 0;              ///< colliding pairs of the collision stage (lsmps_params::collision)
+  long left_domain = 0;             ///< particles removed over the side walls (tanaka_dam_break_config::remove_outside)
+  /// Copies them from the scheme's counters (scheme::lsmps_counters).
+  template <class Counters>
+  void read_counts(const Counters& k) {
+    steps = k.steps;
+    guarded = k.guarded;
+    active_set_rows = k.active_set_rows;
+    active_set_unfinished = k.active_set_unfinished;
+    collisions = k.collisions;
+    left_domain = k.left_domain;
+  }
+};
+
 /// What one run measured.
-struct tanaka_dam_break_result {
+struct tanaka_dam_break_result : tanaka_run_counts {
   std::vector<double> T, Z;     ///< front samples h* (Z) at T = t* every 0.05 (the first at or after each multiple)
   /// The same front over the largest connected body only (io::largest_body, link 1.5): spray clusters left out.
   std::vector<double> Z_body;
@@ -39,8 +57,7 @@ struct tanaka_dam_break_result {
   double min_pair_ratio_non_isolated = 1e300;  ///< the same over pairs without an isolated particle (spray left out)
   /// Largest |u| of a real particle after any step (m/s) and T when it occurred (issue #9's explosion measure).
   double u_max = 0.0, T_u_max = std::numeric_limits<double>::quiet_NaN();
-  long steps = 0, guarded = 0, filtered = 0, ppe_iterations = 0;
-  long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
+  long filtered = 0, ppe_iterations = 0;
   long filter_amplifying = 0, filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
   /// own-loop guard (lsmps_params::own_loop): particle-steps checked, made p = 0, with copies' two-point term
   /// dropped; repeated solves
@@ -48,8 +65,6 @@ struct tanaka_dam_break_result {
   long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
   long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
-  long collisions = 0;              ///< colliding pairs of the collision stage (lsmps_params::collision)
-  long left_domain = 0;             ///< particles removed over the side walls (tanaka_dam_break_config::remove_outside)
   double left_domain_volume = 0.0;  ///< their ΣV (m²)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
   bool failed = false;          ///< the scheme threw (only with catch_failure)
@@ -283,21 +298,17 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     r.failure = e.what();
   }
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.steps = sim.counters().steps;
+  r.read_counts(sim.counters());
   r.particles_end = sim.state().n_real();
   r.L_min = std::sqrt(sim.state().template get<field::volume>().head(r.particles_end).minCoeff());
   r.splits = sim.counters().splits;
   r.merges = sim.counters().merges;
-  r.left_domain = sim.counters().left_domain;
   r.left_domain_volume = sim.counters().left_domain_volume;
   r.volume_change = (volume() + r.left_domain_volume) / V0 - 1.0;
-  r.guarded = sim.counters().guarded;
   r.filtered = sim.counters().filtered;
   r.filter_amplifying = sim.counters().filter_amplifying;
   r.filter_tapered = sim.counters().filter_tapered;
   r.ppe_iterations = sim.counters().ppe_iterations;
-  r.active_set_rows = sim.counters().active_set_rows;
-  r.active_set_unfinished = sim.counters().active_set_unfinished;
   r.own_loop_checked = sim.counters().own_loop_checked;
   r.own_loop_dirichlet = sim.counters().own_loop_dirichlet;
   r.own_loop_one_point = sim.counters().own_loop_one_point;
@@ -305,7 +316,6 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.ppe_fallbacks = sim.counters().ppe_fallbacks;
   r.ppe_breakdown_restarts = sim.counters().ppe_breakdown_restarts;
   r.shift_velocity_clipped = sim.counters().shift_velocity_clipped;
-  r.collisions = sim.counters().collisions;
   return r;
 }
 

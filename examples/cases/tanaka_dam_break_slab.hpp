@@ -86,7 +86,7 @@ inline tanaka_slab make_tanaka_slab(const tanaka_dam_break_config& c, int layers
 }
 
 /// What run_tanaka_slab measured.
-struct tanaka_slab_result {
+struct tanaka_slab_result : tanaka_run_counts {
   std::vector<double> T, Z;  ///< front samples (as tanaka_dam_break_result: every 0.05 in T)
   std::vector<double> Z_body;  ///< the same over the largest connected body (io::largest_body, link 1.5)
   double p_min = 0.0;        ///< lowest fluid pressure over all steps (Pa)
@@ -94,7 +94,6 @@ struct tanaka_slab_result {
   double u_max = 0.0;        ///< largest fluid |u| after any step (m/s)
   double min_pair_ratio = 1e300;  ///< smallest fluid r_ij/L_ij after any step (min_pair_ratios)
   index_t particles = 0;
-  long steps = 0, guarded = 0, left_domain = 0, active_set_unfinished = 0, active_set_rows = 0, collisions = 0;
   double wall_seconds = 0.0;
   bool failed = false;  ///< with catch_failure: the scheme threw at T_failed (failure: its message)
   double T_failed = std::numeric_limits<double>::quiet_NaN();
@@ -149,19 +148,12 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
       const Eigen::VectorXd d =
           st.template get<field::volume>().head(n).unaryExpr([](double v) { return std::cbrt(v); });
       const auto counted = [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; };
-      // The largest connected body (spray left out; links without the periodic image, which the slab's inner
-      // layers bridge).
-      const std::vector<char> body = io::largest_body(st.x(), d, n, counted);
-      double front = -std::numeric_limits<double>::infinity(), front_body = front;
-      for (index_t i = 0; i < n; ++i) {  // x + L_i/2
-        if (!counted(i)) continue;
-        front = std::max(front, st.x()(0, i) + 0.5 * d[i]);
-        if (body[static_cast<std::size_t>(i)]) front_body = std::max(front_body, st.x()(0, i) + 0.5 * d[i]);
-      }
-      const double nan = std::numeric_limits<double>::quiet_NaN();  // none counted: NaN, as in 2D
+      // The largest connected body (spray left out; across the periodic side through the minimum image).
+      const std::vector<char> body = io::largest_body(st.x(), d, n, counted, p.domain);
+      const auto in_body = [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; };
       r.T.push_back(T);
-      r.Z.push_back(std::isfinite(front) ? front / c.column_width : nan);
-      r.Z_body.push_back(std::isfinite(front_body) ? front_body / c.column_width : nan);
+      r.Z.push_back(tanaka_surge_front(st.x(), d, n, counted, 0.0) / c.column_width);  // the left wall at x = 0
+      r.Z_body.push_back(tanaka_surge_front(st.x(), d, n, in_body, 0.0) / c.column_width);
     }
   } catch (const mpskit::error& e) {
     if (!catch_failure) throw;
@@ -170,13 +162,7 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
     r.failure = e.what();
   }
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const auto& k = sim.counters();
-  r.steps = k.steps;
-  r.guarded = k.guarded;
-  r.left_domain = k.left_domain;
-  r.active_set_unfinished = k.active_set_unfinished;
-  r.active_set_rows = k.active_set_rows;
-  r.collisions = k.collisions;
+  r.read_counts(sim.counters());
   return r;
 }
 
