@@ -760,7 +760,8 @@ TEST_SUITE("io") {
     std::mt19937_64 rng(test_seed());
     // With periodic axes (search::domain) the links use the minimum image, and the all-pairs search does too.
     // The cloud fills the box [−box/2, box/2) (per axis).
-    auto compare = [&]<int D>(std::integral_constant<int, D>, int count, const vec<D>& box, const search::domain<D>& dom) {
+    auto compare = [&]<int D>(std::integral_constant<int, D>, int count, const vec<D>& box,
+                              const search::domain<D>& dom) {
       std::uniform_real_distribution<double> u(0.0, 1.0), ud(0.5, 1.5);
       points<D> z(D, count);
       Eigen::VectorXd dz(count);
@@ -846,6 +847,33 @@ TEST_SUITE("io") {
     CHECK(m[0] == 1);
     CHECK(m[9] == 1);
     CHECK(m[10] == 0);
+    // Pairs linked only through the side, one pair counted at a time (linked: a body of 2; not: 1). Period 3.01 h
+    // (h = link · d = 1.5): three cells of 1.505, so a grid of four cells of h (cells 0 and 2 not neighbours) would
+    // miss the first pair. The others: a particle exactly at hi (wrapped to lo), one a rounding below lo, and a
+    // pair several periods apart.
+    search::domain<2> thin;
+    thin.periodic = {true, false};
+    thin.lo = vec<2>(0.0, 0.0);
+    thin.hi = vec<2>(3.01 * 1.5, 0.0);
+    const double P = thin.period(0);
+    points<2> pairs(2, 8);
+    pairs.col(0) << 0.1, 0.0;          // and 1 at hi − 1.3: 1.4 apart through the side
+    pairs.col(1) << P - 1.3, 0.0;
+    pairs.col(2) << P, 5.0;            // exactly hi, and 3 1.2 beyond lo
+    pairs.col(3) << 1.2, 5.0;
+    pairs.col(4) << -1e-17, 10.0;      // wraps to the box's top, which is its bottom; and 5 at hi − 1.0
+    pairs.col(5) << P - 1.0, 10.0;
+    pairs.col(6) << 3.0 * P + 0.5, 15.0;  // 3 periods up and 2 down: 1.2 apart
+    pairs.col(7) << -2.0 * P + 1.7, 15.0;
+    const Eigen::VectorXd ones = Eigen::VectorXd::Ones(8);
+    for (index_t k = 0; k < 8; k += 2) {
+      const auto pair = [k](index_t i) { return i == k || i == k + 1; };
+      CAPTURE(k);
+      m = io::largest_body(pairs, ones, 8, pair, thin);
+      CHECK(std::count(m.begin(), m.end(), 1) == 2);
+      m = io::largest_body(pairs, ones, 8, pair);  // open: too far apart
+      CHECK(std::count(m.begin(), m.end(), 1) == 1);
+    }
     // A periodic axis without a period is refused (search::domain::validate).
     search::domain<2> bad = dom;
     bad.hi[0] = bad.lo[0];

@@ -310,14 +310,22 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
   }
   if (ids.empty()) return member;
   // Cells: size h = link · max d on the open axes (every link is shorter than one cell); on a periodic axis m cells
-  // of P/m >= h across the period (m >= 1; with m < 3 the neighbour cells repeat, which only repeats checks).
+  // of P/m >= h across the period (m >= 1, at most 4e18; with m < 3 the neighbour cells repeat, which only repeats
+  // checks).
   const double h = link * d_max;
   std::array<double, D> cell_size{};
   std::array<std::int64_t, D> cells{};
   for (int a = 0; a < D; ++a) {
     const auto as = static_cast<std::size_t>(a);
-    cells[as] = dom.periodic[as] ? std::max<std::int64_t>(1, static_cast<std::int64_t>(dom.period(a) / h)) : 0;
-    cell_size[as] = dom.periodic[as] ? dom.period(a) / static_cast<double>(cells[as]) : h;
+    if (!dom.periodic[as]) {
+      cell_size[as] = h;
+      continue;
+    }
+    const double P = dom.period(a);
+    std::int64_t m = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::min(P / h, 4e18)));
+    if (m > 1 && P / static_cast<double>(m) < h) --m;  // P/h rounded up to a whole number: one cell fewer
+    cells[as] = m;
+    cell_size[as] = P / static_cast<double>(m);
   }
   for (index_t i : ids)  // the cell index (and its neighbours' ±1) must fit an int64_t
     for (int a = 0; a < D; ++a)
