@@ -1217,8 +1217,9 @@ TEST_SUITE("dam_break_lsmps") {
     // discretisation. Measured 2026-12-04 (the example, -O3, the same code): 651 steps to T = 3.4, front in the band at
     // 69 of 69 samples, guard 0, p >= 0, max |u| 2.33 sqrt(gH), closest pair 0.495 L; the largest body's front at
     // the far wall (Z >= 3.9) from T = 3.15 on (the body linked across the periodic side since the same day: this
-    // test, -O2, 623 steps to T = 3.3, band 67/67, at the wall at 3 of 3 samples from T = 3.2); against the 2D run with lsmps_impact_params<2> at 10 mm the
-    // largest relative front difference to T = 2.5 is 2.26 % (3.36 % to T = 3.4). Asserted within 4 %: closed by
+    // test, -O2, 623 steps to T = 3.3, band 67/67, at the wall at 3 of 3 samples from T = 3.2); against the 2D run
+    // with lsmps_impact_params<2> at 10 mm the largest relative front difference to T = 2.5 is 2.26 % (3.36 % to
+    // T = 3.4). Asserted within 4 %: closed by
     // two end walls 4 L apart the slab's front lagged the 2D run's by 5.7 % (their copies carry the wall velocity
     // and the one-sided-band filter drags the layers beside them: docs/lsmps_scheme.md "The impact configuration").
     // With Tanaka's Table 2 the slab blows up before T = 1.2 (measured with end walls at 10, 6.67 and 5 mm).
