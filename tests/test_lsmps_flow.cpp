@@ -1220,8 +1220,8 @@ TEST_SUITE("dam_break_lsmps") {
     // the band at 69 of 69 samples, guard 0, p >= 0, max |u| 2.33 sqrt(gH), closest pair 0.495 L; the largest body's
     // front at the far wall (Z >= 3.9) from T = 3.15 on; against the 2D run with lsmps_impact_params<2> at 10 mm the
     // largest relative front difference to T = 2.5 is 2.26 % (3.36 % to T = 3.4). This test runs 12.5 mm (10 mm
-    // until 2026-12-04, 124 -> 58 s, cut for issue #7's CI budget on a slower machine; the period, 8 L = 100 mm,
-    // still exceeds 7.44 L): 1024 particles, 510 steps to T = 3.3, band 67/67, the body at the far wall at 3 of 3
+    // until 2026-12-04, 124 -> 58 s, cut for issue #7's CI budget on a slower machine; the period is 8 L = 100 mm):
+    // 1024 particles, 510 steps to T = 3.3, band 67/67, the body at the far wall at 3 of 3
     // samples from T = 3.2, guard 0, p >= 0, max |u| 2.06 sqrt(gH), closest pair 0.571 L, against the 2D run at
     // 12.5 mm 1.62 % to T = 2.5 (50 samples). Asserted within 4 %: closed by
     // two end walls 4 L apart the slab's front lagged the 2D run's by 5.7 % (their copies carry the wall velocity
