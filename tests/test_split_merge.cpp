@@ -1944,21 +1944,22 @@ TEST_SUITE("dam_break_multires") {
     cases::refine_around_block(p, c, 2.0, 0.03, 0.06);
     const double Lf = 0.5 * c.L;
     run_max_packing maxima;
-    const auto r = cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, 3.55, p, false, maxima);
+    const double T_end = 3.55;
+    const auto r = cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, p, false, maxima);
     const cases::impact_measures m = cases::far_wall_impact(r);
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(c);  // T = t sqrt(2g/h0)
     const double sqrt_gh = std::sqrt(c.g * c.column_height);
-    std::printf("dam_break_multires obstacle through the impact: to T = 3.55, particles %ld -> %ld, splits %ld merges %ld, "
+    std::printf("dam_break_multires obstacle through the impact: to T = %.2f, particles %ld -> %ld, splits %ld merges %ld, "
                 "volume change %.1e, guard %ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f, max c %.3f, probe wet at "
                 "T = %.3f, impulse %.1f Pa s%s, steps %ld, %.1f s\n",
-                static_cast<long>(r.particles), static_cast<long>(r.particles_end), r.splits, r.merges, r.volume_change,
+                T_end, static_cast<long>(r.particles), static_cast<long>(r.particles_end), r.splits, r.merges, r.volume_change,
                 r.guarded, r.u_max / sqrt_gh, r.min_pair_ratio, maxima.c, db.t_star(m.t_arrival), m.impulse,
                 m.complete ? "" : " (window incomplete)", r.steps, r.wall_seconds);
     CHECK(r.u_max <= 5.0 * sqrt_gh);    // the explosion bound
     CHECK(r.min_pair_ratio >= 0.3);     // the clustering bound
     CHECK(maxima.c <= 2.0);             // the packing bound
     CHECK(r.guarded == 0);              // no particle crossed a wall, in the impact included
-    CHECK(m.complete);                  // the probe got wet and its 10 ms impact window ended before T = 3.55
+    CHECK(m.complete);                  // the probe got wet and its 10 ms impact window ended before T_end
     CHECK(db.t_star(m.t_arrival) > 3.0); // ... by the surge, not by a splash over the block (the coarse run's film: 2.56)
     CHECK(r.splits > 100);
     CHECK(r.merges > 20);
