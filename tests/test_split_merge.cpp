@@ -1694,8 +1694,8 @@ TEST_SUITE("multires_hard") {
     // A refined zone that holds a vertical edge of the box (two walls meeting at the free surface) fails
     // with these (default) wall rows: the next case, and docs/resolution.md "What fails in 3D".
     const cases::polygon_tank_config tc = box_tank_3d();
-    const double L = tc.L;
-    const auto o = run_hard_tank<3>(tc, 3.0, [L](const vec<3>& x, double t) {
+    const double L = tc.L, T_end = 3.0;
+    const auto o = run_hard_tank<3>(tc, T_end, [L](const vec<3>& x, double t) {
       const double Lf = L / (1.0 + std::min(t / 0.15, 1.0));
       const double d = std::max({0.085 - x[0], 0.035 - x[1], x[1] - 0.065, x[2] - 0.025, 0.0});
       const double f = std::clamp(d / 0.03, 0.0, 1.0);
@@ -1723,8 +1723,8 @@ TEST_SUITE("multires_hard") {
     // 0.240 and max |u| 8.5 √(gH) (rerun 2026-11-28; 2.85 in the earlier run of docs/resolution.md). That option is
     // off here, as by default.
     const cases::polygon_tank_config tc = box_tank_3d();
-    const double L = tc.L;
-    const auto o = run_hard_tank<3>(tc, 3.0, [L](const vec<3>& x, double t) {
+    const double L = tc.L, T_end = 3.0;
+    const auto o = run_hard_tank<3>(tc, T_end, [L](const vec<3>& x, double t) {
       const double Lf = L / (1.0 + std::min(t / 0.15, 1.0));
       const double f = std::clamp(std::max(0.085 - x[0], 0.0) / 0.03, 0.0, 1.0);
       return Lf + f * (1.05 * L - Lf);
