@@ -2,7 +2,8 @@
 # Sanitizer run (on demand, not part of CI): builds every test suite with AddressSanitizer and
 # UndefinedBehaviorSanitizer (-O1 -g; assertions on, and Eigen's bounds checks in every suite, the physics-regression
 # ones included: MPSKIT_TEST_EIGEN_CHECKS_EVERYWHERE) in build/sanitize, then runs with ctest the labels that take
-# seconds at -O2. The physics-regression labels run 7-16x slower here and are left out unless named:
+# seconds at -O2. The physics-regression labels run 7-16x slower here and are left out unless named, and so is
+# consumer (about a minute: it configures and builds two consumer projects, with this build's sanitizer flags):
 #   bash scripts/sanitize.sh                           # the default selection (README "Build options")
 #   bash scripts/sanitize.sh -L taylor_green_multires  # any ctest arguments replace the selection
 # A sanitizer report fails the test (UBSan does not recover; ASan aborts, leaks included).
