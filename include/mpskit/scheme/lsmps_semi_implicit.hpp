@@ -291,6 +291,14 @@ struct lsmps_params {
   /// complementarity, p_wall ≥ 0 (a wall pushes, it does not pull: the fluid may leave it). Without it, copies
   /// of particles leaving a wall were solved at −1.4·10⁷ Pa in the dam break (3.8 mm), docs/lsmps_scheme.md.
   bool active_set_copies = false;
+  /// The active set also releases (ours, opt-in; needs active_set_solves > 0; docs/lsmps_scheme.md deviation 13):
+  /// after each repeated solve, a fluid particle held at p = 0 whose own row, evaluated at that solution, is not
+  /// met in the compressing direction (w = b − Σ_j a_ij p_j < 0 with a_ii < 0: freed, it would take p > 0) leaves
+  /// the set, and the PPE is built and solved again. The set then satisfies the complementarity p ≥ 0, w ≥ 0,
+  /// p w = 0 at the fluid rows (the primal–dual active-set iteration) instead of only p ≥ 0. Without it 63 % of
+  /// the set's particles violate w ≥ 0 in the main example's fine run, and the set alternates from step to step
+  /// (a period-two cycle of the pressures). Wall copies are only joined (active_set_copies), never released.
+  bool active_set_release = false;
   own_loop_guard_params own_loop{};   ///< the own-loop guard (ours, opt-in; see the struct)
   /// Pair collisions after the correction (ours, opt-in; docs/lsmps_scheme.md deviation 17): seed 001 eq. 13 (Lee
   /// et al. 2011) between fluid particles closer than α1 L_ij that approach, and against their wall copies (at the
@@ -331,6 +339,8 @@ struct lsmps_params {
     v.require(!(shift_isolated_penalty && shift.penalty != regularize::penalty_direction::pair),
               "shift_isolated_penalty", "needs shift.penalty = penalty_direction::pair (the printed direction "
               "-grad c does not push a particle away from an isolated one)");
+    v.require(!(active_set_release && active_set_solves == 0), "active_set_release",
+              "needs active_set_solves > 0 (the releases happen between the active set's repeated solves)");
     v.require(!(active_set_copies && active_set_solves == 0), "active_set_copies",
               "needs active_set_solves > 0 (the copies join the active set's repeated solves)");
     v.require(!(active_set_copies && copy_row == copy_row_kind::neumann_points), "active_set_copies",
@@ -413,6 +423,8 @@ struct lsmps_counters {
                                    ///< active set (particle-steps)
   long active_set_solves = 0;      ///< PPE solves repeated by the active set (summed over steps)
   long active_set_unfinished = 0;  ///< steps whose last allowed solve still left a fluid pressure < 0 (kept)
+  long active_set_released = 0;    ///< fluid particles released from the active set (lsmps_params::active_set_release;
+                                   ///< particle-steps, a particle counted at each release)
   long own_loop_checked = 0;       ///< particle-steps whose own-loop block was computed (own_loop_guard_params)
   long own_loop_dirichlet = 0;     ///< particle-steps made p = 0 rows by the own-loop guard (a surface particle:
                                    ///< its copies made p = 0 rows)
@@ -443,7 +455,7 @@ struct lsmps_counters {
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
 /// the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 37> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 38> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -456,7 +468,7 @@ inline constexpr std::array<long lsmps_counters::*, 37> lsmps_counter_fields{
     &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
     &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
     &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident,
-    &lsmps_counters::left_domain};
+    &lsmps_counters::left_domain, &lsmps_counters::active_set_released};
 // A counter added to lsmps_counters without a place in the list above fails here.
 static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 3 * sizeof(double));
 
@@ -582,6 +594,8 @@ class lsmps_semi_implicit {
   /// The last PPE matrix (row r is particle ppe_rows()[r]; columns in the same order).
   const ppe::matrix& ppe_matrix() const { return A_; }
   const std::vector<index_t>& ppe_rows() const { return rows_; }  ///< the particle of each PPE row
+  /// The right-hand side of the last PPE solve (row order ppe_rows(); known neighbours' values moved into it).
+  const Eigen::VectorXd& ppe_rhs() const { return b_; }
   const boundary::pressure_flux& last_flux() const { return last_flux_; }  ///< pressure-boundary fluxes of the last step
   /// c of the last step (real + copies), in that step's particle order: after a step that resized the state
   /// (splits, merges, inflow, outflow) entry i is no longer state() particle i. The same holds for normals(),
@@ -1351,9 +1365,11 @@ class lsmps_semi_implicit {
   /// ours, docs/lsmps_scheme.md deviation 13): particles whose solved pressure is negative join the set (Dirichlet p = 0) and the system
   /// is built and solved again. A primal active-set iteration for the complementarity problem p ≥ 0 of
   /// Miyamoto & Koshizuka (arXiv:2302.14245, an MPS-family method with the incompressibility constraint as an
-  /// LCP) without its release step: the set only grows within a step (with releases, particles compressed at
-  /// p = 0 leaving the set, the dam break failed earlier: measured, docs/lsmps_scheme.md). The repeats reuse
-  /// the first build's rows (active_set_reuse_rows; 1.41× → 1.23× the wall time without the set at 4 mm).
+  /// LCP). By default without its release step: the set only grows within a step. With active_set_release,
+  /// particles held at p = 0 whose row says they are compressed leave the set between the solves (the
+  /// primal–dual active-set iteration; measured in docs/lsmps_scheme.md). The repeats reuse the first build's
+  /// rows (active_set_reuse_rows; 1.41× → 1.23× the wall time without the set at 4 mm), except after a release,
+  /// which brings rows back: the next solve builds them all.
   void solve_pressure_with_set(double dt) {
     const index_t n = s_.n_real();
     auto& pres = s_.template get<field::pressure>();
@@ -1361,25 +1377,62 @@ class lsmps_semi_implicit {
     if (p_.own_loop.enabled)
       for (index_t i = 0; i < n; ++i)
         if (own_loop_dirichlet_[static_cast<std::size_t>(i)]) active_set_[static_cast<std::size_t>(i)] = 1;
+    bool rebuild = false;  // a release brings rows back: the next solve builds them all again
     for (int repeat = 0;; ++repeat) {
-      if (repeat == 0 || !p_.active_set_reuse_rows) solve_pressure_once(dt);
+      if (repeat == 0 || !p_.active_set_reuse_rows || rebuild) solve_pressure_once(dt);
       else if (drop_active_set_rows() > 0) assemble_and_solve();
       if (p_.active_set_solves == 0) return;
       const bool last = repeat == p_.active_set_solves;  // negatives found now are kept and counted
+      // Releases first, among the particles held at p = 0 in this solve (not those joining now).
+      release_.clear();
+      const long released = p_.active_set_release && repeat > 0 && !last ? mark_active_set_releases(dt) : 0;
       long joined = 0;
       for (index_t i = 0; i < (p_.active_set_copies ? nc_ : n); ++i)
         if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) {
           ++joined;
           if (!last) active_set_[static_cast<std::size_t>(i)] = 1;
         }
-      if (joined == 0) return;
+      for (const index_t i : release_) active_set_[static_cast<std::size_t>(i)] = 0;
+      if (joined == 0 && released == 0) return;
       if (last) {
-        ++c_.active_set_unfinished;
+        if (joined > 0) ++c_.active_set_unfinished;
         return;
       }
+      rebuild = released > 0;
       c_.active_set_rows += joined;
+      c_.active_set_released += released;
       ++c_.active_set_solves;
     }
+  }
+
+  /// The releases of lsmps_params::active_set_release: the real fluid particles held at p = 0 by the active set
+  /// (not by the own-loop guard) whose own PPE row, built as an unknown's and evaluated at the current pressures,
+  /// has w = b − Σ_j a_ij p_j < 0 with a diagonal a_ii < 0 — freed, the particle would take p ≈ w / a_ii > 0 (it
+  /// is being compressed). Listed in release_ (applied by the caller after this solve's joins); returns their
+  /// number. The rows do not depend on the set, so this is the row the particle had before it joined.
+  long mark_active_set_releases(double dt) {
+    const index_t n = s_.n_real();
+    const auto& pres = s_.template get<field::pressure>();
+    release_candidates_.clear();
+    for (index_t i = 0; i < n; ++i)
+      if (active_set_[static_cast<std::size_t>(i)] && !(p_.own_loop.enabled && own_loop_dirichlet_[static_cast<std::size_t>(i)]))
+        release_candidates_.push_back(i);
+    const index_t m = static_cast<index_t>(release_candidates_.size());
+    if (static_cast<index_t>(release_buf_.size()) < m) release_buf_.resize(static_cast<std::size_t>(m));
+    release_flag_.assign(static_cast<std::size_t>(m), 0);
+    for_each_particle(exec::par{}, m, [&](index_t k) {
+      const index_t i = release_candidates_[static_cast<std::size_t>(k)];
+      op::row_entries& row = release_buf_[static_cast<std::size_t>(k)];
+      const double b = build_ppe_row(i, dt, row);
+      if (!(row.diagonal() < 0.0)) return;  // a wrong-sign row (deviation 10) frees nothing
+      double ap = 0.0;
+      for_each_entry(row, i, [&](index_t j, double a) { ap += a * pres[j]; });
+      release_flag_[static_cast<std::size_t>(k)] = b - ap < 0.0;
+    });
+    release_.clear();
+    for (index_t k = 0; k < m; ++k)
+      if (release_flag_[static_cast<std::size_t>(k)]) release_.push_back(release_candidates_[static_cast<std::size_t>(k)]);
+    return static_cast<long>(release_.size());
   }
 
   /// One PPE row (stage 8) of unknown particle i at the current ut_, comp_ and dpdn_: its coefficients in `row`
@@ -1882,6 +1935,9 @@ class lsmps_semi_implicit {
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   points<D> collision_du_;                // Δu of the collision stage (9c)
   std::vector<std::uint8_t> active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
+  std::vector<index_t> release_candidates_, release_;  // active_set_release: the set's fluid members, those released
+  std::vector<op::row_entries> release_buf_;            // their rows (capacity kept across steps)
+  std::vector<std::uint8_t> release_flag_;
   // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
   std::vector<std::uint8_t> own_loop_dirichlet_, own_loop_one_point_;
   std::vector<std::uint8_t> own_loop_zero_copies_;  // surface parents whose copies the guard made p = 0 rows
