@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -652,6 +653,43 @@ TEST_SUITE("lsmps_threads") {
   }
 }
 
+namespace {
+
+// One step of a 12 × 12 lattice blob (spacing 0.01 m) in free space (surface test on, no walls, g = 0) with the
+// velocity u(x − x_c) at each particle and the active-set options given: the pressures and the last PPE system.
+struct blob_step {
+  Eigen::VectorXd p, b;  // pressures by particle; the last PPE's right-hand side (rows: `rows`)
+  ppe::matrix A;
+  std::vector<index_t> rows;
+  scheme::lsmps_counters c;
+};
+constexpr int blob_n = 12;
+constexpr double blob_L = 0.01;
+
+blob_step run_blob_step(const std::function<vec<2>(const vec<2>&)>& u, int solves, bool reuse, bool release) {
+  struct blob : lsmps_defaults<2> {
+    using walls = scheme::no_walls;
+  };
+  const int N = blob_n;
+  const double L = blob_L, xc = 0.5 * N * L;
+  scheme::lsmps_state<2> s0(N * N);
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << (i + 0.5) * L, (j + 0.5) * L;
+  for (int k = 0; k < N * N; ++k) s0.u().col(k) = u(vec<2>(s0.x().col(k) - vec<2>(xc, xc)));
+  s0.template get<field::volume>().setConstant(L * L);
+  scheme::lsmps_params<2> p;
+  p.g.setZero();
+  p.active_set_solves = solves;
+  p.active_set_reuse_rows = reuse;
+  p.active_set_release = release;
+  simulation<blob> sim(p, std::move(s0));
+  sim.step();
+  return blob_step{Eigen::VectorXd(sim.state().get<field::pressure>().head(N * N)), sim.ppe_rhs(), sim.ppe_matrix(),
+                   sim.ppe_rows(), sim.counters()};
+}
+
+}  // namespace
+
 TEST_SUITE("det_f") {
   // Compile-time refusal (Tanaka §4.3: eq. 63 needs every second derivative separately).
   static_assert(!ppe::SecondDerivativeOperator<op::mps<2, kernel::quadratic>>, "classic MPS must be refused");
@@ -738,32 +776,15 @@ TEST_SUITE("det_f") {
   }
 
   TEST_CASE("PPE active set (active_set_solves): p >= 0 where the plain solve pulls, unchanged where it pushes") {
-    // A 12 × 12 lattice blob in free space (surface test on, no walls, g = 0) with u = a (x − x_c): expanding
+    // The blob of run_blob_step with u = a (x − x_c): expanding
     // (a > 0) the det F source is positive and the plain solve gives negative pressures inside; with the
     // active set those particles are held at p = 0 and the PPE solved again until none is negative.
     // Contracting (a < 0) every solved pressure is positive, so the active set must change nothing (bitwise).
-    struct blob : lsmps_defaults<2> {
-      using walls = scheme::no_walls;
-    };
-    const int N = 12;
-    const double L = 0.01, xc = 0.5 * N * L;
-    struct outcome {
-      Eigen::VectorXd p;
-      scheme::lsmps_counters c;
-    };
-    const auto run = [&](double a, int solves, bool reuse = true) {
-      scheme::lsmps_state<2> s0(N * N);
-      for (int i = 0; i < N; ++i)
-        for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << (i + 0.5) * L, (j + 0.5) * L;
-      s0.u() = a * (s0.x().colwise() - vec<2>(xc, xc));
-      s0.template get<field::volume>().setConstant(L * L);
-      scheme::lsmps_params<2> p;
-      p.g.setZero();
-      p.active_set_solves = solves;
-      p.active_set_reuse_rows = reuse;
-      simulation<blob> sim(p, std::move(s0));
-      sim.step();
-      return outcome{Eigen::VectorXd(sim.state().get<field::pressure>().head(N * N)), sim.counters()};
+    const int N = blob_n;
+    const double L = blob_L, xc = 0.5 * N * L;
+    using outcome = blob_step;
+    const auto run = [](double a, int solves, bool reuse = true) {
+      return run_blob_step([a](const vec<2>& d) { return vec<2>(a * d); }, solves, reuse, false);
     };
     const outcome pull = run(1.0, 0), held = run(1.0, 10);
     CHECK(pull.p.minCoeff() < 0.0);  // the case does exercise the set (plain solve: negative inside)
@@ -820,42 +841,17 @@ TEST_SUITE("det_f") {
   }
 
   TEST_CASE("PPE active set with releases (active_set_release): the complementarity p >= 0, w >= 0, p w = 0") {
-    // A 12 × 12 lattice blob in free space (g = 0) with u = (|x − x_c|, 0): the left half is compressed, the right
+    // The blob of run_blob_step with u = (|x − x_c|, 0): the left half is compressed, the right
     // half stretched, so the plain solve pulls (p < 0) on the right. The set without releases holds the right half
     // at p = 0, and some of it is then squeezed by the left half's pressure: freed, those rows would take p > 0
     // (w = b − A p < 0 with a_ii < 0). With releases they leave the set. Checked against the plain run's system
     // (A0, b0: the same first build, every non-surface particle an unknown, the rows independent of the set):
     // rows with p > 0 meet their equation to the solver's tolerance (1e-8 relative, checked at 1e-6 of max |b0|),
     // rows held at p = 0 have w / a_ii <= 0 (to 1e-9 of the largest pressure: round-off of two summation orders).
-    struct blob : lsmps_defaults<2> {
-      using walls = scheme::no_walls;
-    };
-    const int N = 12;
-    const double L = 0.01, xc = 0.5 * N * L;
-    struct outcome {
-      Eigen::VectorXd p, b;
-      ppe::matrix A;
-      std::vector<index_t> rows;
-      scheme::lsmps_counters c;
-    };
-    const auto run = [&](bool contracting, int solves, bool release) {
-      scheme::lsmps_state<2> s0(N * N);
-      for (int i = 0; i < N; ++i)
-        for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << (i + 0.5) * L, (j + 0.5) * L;
-      for (int k = 0; k < N * N; ++k) {
-        const double dx = s0.x()(0, k) - xc, dy = s0.x()(1, k) - xc;
-        if (contracting) s0.u().col(k) << -dx, -dy;
-        else s0.u().col(k) << std::abs(dx), 0.0;
-      }
-      s0.template get<field::volume>().setConstant(L * L);
-      scheme::lsmps_params<2> p;
-      p.g.setZero();
-      p.active_set_solves = solves;
-      p.active_set_release = release;
-      simulation<blob> sim(p, std::move(s0));
-      sim.step();
-      return outcome{Eigen::VectorXd(sim.state().get<field::pressure>().head(N * N)), sim.ppe_rhs(), sim.ppe_matrix(),
-                     sim.ppe_rows(), sim.counters()};
+    using outcome = blob_step;
+    const auto run = [](bool contracting, int solves, bool release) {
+      if (contracting) return run_blob_step([](const vec<2>& d) { return vec<2>(-d); }, solves, true, release);
+      return run_blob_step([](const vec<2>& d) { return vec<2>(std::abs(d[0]), 0.0); }, solves, true, release);
     };
     const outcome plain = run(false, 0, false);
     CHECK(plain.p.minCoeff() < 0.0);
