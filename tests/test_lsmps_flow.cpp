@@ -688,6 +688,27 @@ blob_step run_blob_step(const std::function<vec<2>(const vec<2>&)>& u, int solve
                    sim.ppe_rows(), sim.counters()};
 }
 
+// The same blob on the floor of a 0.32 × 0.3 m tank (from x = 0.1 m; copies as unknowns, rows beside the wall),
+// with gravity, the velocity u(x − (x_c, 0)) and the active set (10 repeats), `steps` steps: positions, counters.
+std::pair<Eigen::MatrixXd, scheme::lsmps_counters> run_tank_blob(const std::function<vec<2>(const vec<2>&)>& u,
+                                                                 int steps, bool reuse, bool release) {
+  const int N = blob_n;
+  const double L = blob_L, xc = 0.1 + 0.5 * N * L;
+  scheme::lsmps_state<2> s0(N * N);
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << 0.1 + (i + 0.5) * L, (j + 0.5) * L;
+  for (int k = 0; k < N * N; ++k) s0.u().col(k) = u(vec<2>(s0.x().col(k) - vec<2>(xc, 0.0)));
+  s0.template get<field::volume>().setConstant(L * L);
+  scheme::lsmps_params<2> p;
+  p.active_set_solves = 10;
+  p.active_set_reuse_rows = reuse;
+  p.active_set_release = release;
+  const geometry::polygon_set<2> walls(geometry::tank(vec<2>(0.0, 0.0), vec<2>(0.32, 0.3)));
+  simulation<lsmps_defaults<2>> sim(p, std::move(s0), &walls);
+  for (int k = 0; k < steps; ++k) sim.step();
+  return std::pair(Eigen::MatrixXd(sim.state().x().leftCols(N * N)), sim.counters());
+}
+
 }  // namespace
 
 TEST_SUITE("det_f") {
@@ -780,8 +801,6 @@ TEST_SUITE("det_f") {
     // (a > 0) the det F source is positive and the plain solve gives negative pressures inside; with the
     // active set those particles are held at p = 0 and the PPE solved again until none is negative.
     // Contracting (a < 0) every solved pressure is positive, so the active set must change nothing (bitwise).
-    const int N = blob_n;
-    const double L = blob_L, xc = 0.5 * N * L;
     using outcome = blob_step;
     const auto run = [](double a, int solves, bool reuse = true) {
       return run_blob_step([a](const vec<2>& d) { return vec<2>(a * d); }, solves, reuse, false);
@@ -803,19 +822,8 @@ TEST_SUITE("det_f") {
     // gives, here and over 5 steps of the blob expanding on the floor of a tank (copies as unknowns, rows
     // beside the wall, Dirichlet flags changing as particles join the set).
     CHECK((run(1.0, 10, false).p.array() == held.p.array()).all());
-    const auto run_tank = [&](bool reuse) {
-      scheme::lsmps_state<2> s0(N * N);
-      for (int i = 0; i < N; ++i)
-        for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << 0.1 + (i + 0.5) * L, (j + 0.5) * L;
-      s0.u() = 1.0 * (s0.x().colwise() - vec<2>(0.1 + xc, 0.0));
-      s0.template get<field::volume>().setConstant(L * L);
-      scheme::lsmps_params<2> p;
-      p.active_set_solves = 10;
-      p.active_set_reuse_rows = reuse;
-      const geometry::polygon_set<2> walls(geometry::tank(vec<2>(0.0, 0.0), vec<2>(0.32, 0.3)));
-      simulation<lsmps_defaults<2>> sim(p, std::move(s0), &walls);
-      for (int k = 0; k < 5; ++k) sim.step();
-      return std::pair(Eigen::MatrixXd(sim.state().x().leftCols(N * N)), sim.counters());
+    const auto run_tank = [](bool reuse) {
+      return run_tank_blob([](const vec<2>& d) { return d; }, 5, reuse, false);
     };
     {
       scheme::lsmps_params<2> p;
@@ -895,21 +903,7 @@ TEST_SUITE("det_f") {
     // The same over 6 steps of that blob on the floor of a tank (copies as unknowns, rows beside the wall,
     // particles joining and leaving the set over several repeats and steps).
     const auto run_tank = [](bool reuse) {
-      const int N = blob_n;
-      const double L = blob_L, xc = 0.1 + 0.5 * N * L;
-      scheme::lsmps_state<2> s0(N * N);
-      for (int i = 0; i < N; ++i)
-        for (int j = 0; j < N; ++j) s0.x().col(i * N + j) << 0.1 + (i + 0.5) * L, (j + 0.5) * L;
-      for (int k = 0; k < N * N; ++k) s0.u().col(k) << std::abs(s0.x()(0, k) - xc), 0.0;
-      s0.template get<field::volume>().setConstant(L * L);
-      scheme::lsmps_params<2> p;
-      p.active_set_solves = 10;
-      p.active_set_reuse_rows = reuse;
-      p.active_set_release = true;
-      const geometry::polygon_set<2> walls(geometry::tank(vec<2>(0.0, 0.0), vec<2>(0.32, 0.3)));
-      simulation<lsmps_defaults<2>> sim(p, std::move(s0), &walls);
-      for (int k = 0; k < 6; ++k) sim.step();
-      return std::pair(Eigen::MatrixXd(sim.state().x().leftCols(N * N)), sim.counters());
+      return run_tank_blob([](const vec<2>& d) { return vec<2>(std::abs(d[0]), 0.0); }, 6, reuse, true);
     };
     const auto [x_reuse, c_reuse] = run_tank(true);
     const auto [x_build, c_build] = run_tank(false);
