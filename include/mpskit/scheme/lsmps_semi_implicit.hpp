@@ -1412,7 +1412,7 @@ class lsmps_semi_implicit {
   /// is being compressed). Listed in release_ (applied by the caller after this solve's joins); returns their
   /// number. The rows do not depend on the set, so this is the row the particle had before it joined.
   /// (Keeping the first build's rows of the members, for this and for the solve after a release, instead of
-  /// building them again: tried 2026-12-05, bitwise the same, no gain in wall time at 5 mm, 3 rounds.)
+  /// building them again: tried 2026-12-05, the same results (bitwise in the tests), slower at 5 mm in 3 rounds.)
   long mark_active_set_releases(double dt) {
     const index_t n = s_.n_real();
     const auto& pres = s_.template get<field::pressure>();
