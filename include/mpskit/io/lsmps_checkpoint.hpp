@@ -16,6 +16,9 @@
 ///   `lsmps.ledger.flux_names`   bytes, the boundary names joined by '\n'
 ///   `lsmps.ledger.fluxes`       doubles, per flux {volume, momentum (D)}
 ///   `lsmps.ledger.flux_particles` int64, per flux
+///   `lsmps.active_set_held`     int64, the ids the active set held at the last pressure solve's end
+///                               (lsmps_params::active_set_warm_start; empty without it; older files: none,
+///                               read as empty)
 ///
 /// Not saved: this step's imaginary copies and pressure-boundary particles (ghosts, made anew at every step
 /// start), the neighbour list, the operators and the solver's lagged factorisation. A restart is therefore
@@ -84,6 +87,9 @@ void add_simulation_sections(checkpoint_sections& s, const scheme::lsmps_semi_im
   s.add_bytes("lsmps.ledger.flux_names", names);
   s.add_doubles("lsmps.ledger.fluxes", fluxes);
   s.add_int64s("lsmps.ledger.flux_particles", particles);
+  std::vector<std::int64_t> held;
+  for (const particle_id id : sim.active_set_held()) held.push_back(static_cast<std::int64_t>(id));
+  s.add_int64s("lsmps.active_set_held", held);
 }
 
 /// \brief Writes the LSMPS simulation's real particles (not this step's copies and boundary particles) and its
@@ -172,8 +178,11 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
     e.particles = static_cast<index_t>(fp[f]);
     t.fluxes.push_back(std::move(e));
   }
+  std::vector<particle_id> held;
+  if (s.contains("lsmps.active_set_held"))
+    for (const std::int64_t id : s.get_int64s("lsmps.active_set_held")) held.push_back(static_cast<particle_id>(id));
   try {
-    sim.restore(std::move(st), time[0], time[1], c, ts, t, static_cast<long>(lc[0]));
+    sim.restore(std::move(st), time[0], time[1], c, ts, t, static_cast<long>(lc[0]), std::move(held));
   } catch (const mpskit::error& e) {
     fail("load_simulation: '", file, "': ", e.what());
   }

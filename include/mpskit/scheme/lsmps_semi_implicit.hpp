@@ -299,6 +299,16 @@ struct lsmps_params {
   /// the set's particles violate w ≥ 0 in the main example's fine run, and the set alternates from step to step
   /// (a period-two cycle of the pressures). Wall copies are only joined (active_set_copies), never released.
   bool active_set_release = false;
+  /// The active set starts each step from the previous step's (ours, opt-in; needs active_set_release;
+  /// docs/lsmps_scheme.md deviation 13): the real fluid particles held at p = 0 by the set when the previous
+  /// step's pressure stage ended (by particle id, so splits, merges and removals need no mapping) are held again
+  /// from the first solve, if they are still neither surface nor isolated, and the releases are tested after
+  /// that first solve as well. Without it each step starts from an empty set; with releases, the first
+  /// (unconstrained) solve then pulls at nearly every fluid particle in the main example's run, the set takes
+  /// almost the whole fluid and the releases free it again over five repeats (docs/resolution.md). Where the
+  /// iteration converges both starts satisfy the same complementarity conditions. The set is part of the
+  /// state: checkpoints save it (section `lsmps.active_set_held`).
+  bool active_set_warm_start = false;
   own_loop_guard_params own_loop{};   ///< the own-loop guard (ours, opt-in; see the struct)
   /// Pair collisions after the correction (ours, opt-in; docs/lsmps_scheme.md deviation 17): seed 001 eq. 13 (Lee
   /// et al. 2011) between fluid particles closer than α1 L_ij that approach, and against their wall copies (at the
@@ -341,6 +351,8 @@ struct lsmps_params {
               "-grad c does not push a particle away from an isolated one)");
     v.require(!(active_set_release && active_set_solves == 0), "active_set_release",
               "needs active_set_solves > 0 (the releases happen between the active set's repeated solves)");
+    v.require(!(active_set_warm_start && !active_set_release), "active_set_warm_start",
+              "needs active_set_release (without releases a set carried from step to step could only grow)");
     v.require(!(active_set_copies && active_set_solves == 0), "active_set_copies",
               "needs active_set_solves > 0 (the copies join the active set's repeated solves)");
     v.require(!(active_set_copies && copy_row == copy_row_kind::neumann_points), "active_set_copies",
@@ -556,9 +568,12 @@ class lsmps_semi_implicit {
   /// Refuses (mpskit::error) a stepper that has already stepped (its neighbour list, operators and lagged
   /// factorisation would describe other particles), a state the constructor would refuse (ghosts, kinds
   /// other than fluid, volumes not finite and > 0), a time or Δt not finite and ≥ 0, negative counters and a
-  /// Δt rung outside the controller's ladder. On error *this is unchanged.
+  /// Δt rung outside the controller's ladder. `held`: the ids the active set held when the saved run's last
+  /// pressure solve ended (active_set_held(); lsmps_params::active_set_warm_start), refused unless strictly
+  /// increasing and each the id of a restored particle. On error *this is unchanged.
   void restore(state_type s, double t, double dt, const lsmps_counters& c, const time_step_state& ts,
-               const resolution::ledger_step<D>& ledger_totals, long ledger_steps) {
+               const resolution::ledger_step<D>& ledger_totals, long ledger_steps,
+               std::vector<particle_id> held = {}) {
     if (nl_.rows() != 0)
       fail("lsmps_semi_implicit::restore: the stepper has already stepped (restore into a new one)");
     check_particles(s, "the restored state");
@@ -573,8 +588,17 @@ class lsmps_semi_implicit {
     if (ts.halvings < 0 || ts.halvings > dt_ctrl_.max_rungs() || ts.held < 0 || ts.changes < 0)
       fail("lsmps_semi_implicit::restore: time-step state {", ts.halvings, ", ", ts.held, ", ", ts.changes,
            "} out of range (rungs in [0, ", dt_ctrl_.max_rungs(), "], counts >= 0)");
+    if (!held.empty()) {
+      std::vector<particle_id> ids(s.ids().begin(), s.ids().begin() + s.n_real());
+      std::sort(ids.begin(), ids.end());
+      for (std::size_t k = 0; k < held.size(); ++k)
+        if ((k > 0 && !(held[k - 1] < held[k])) || !std::binary_search(ids.begin(), ids.end(), held[k]))
+          fail("lsmps_semi_implicit::restore: the active set's held ids must be strictly increasing ids of restored "
+               "particles (entry ", k, ": id ", held[k], ")");
+    }
     resolution::conservation_ledger<D> ledger = ledger_;
     ledger.restore(ledger_totals, ledger_steps);  // validates; throws before anything is changed
+    held_ids_ = std::move(held);
     s_ = std::move(s);
     t_ = t;
     dt_ = dt;
@@ -588,6 +612,9 @@ class lsmps_semi_implicit {
   double time() const { return t_; }                      ///< simulated time (s)
   double dt() const { return dt_; }                       ///< Δt of the last step (s)
   const lsmps_counters& counters() const { return c_; }   ///< counters
+  /// The ids (sorted) of the real particles the active set held at p = 0 when the last pressure solve ended
+  /// (the own-loop guard's excluded); kept only with lsmps_params::active_set_warm_start, else empty.
+  const std::vector<particle_id>& active_set_held() const { return held_ids_; }
   const params_type& params() const { return p_; }        ///< the numbers
   const op_type& op() const { return op_; }               ///< operators of the last step
   const search::neighbour_list<D>& neighbours() const { return nl_; }  ///< list of the last step
@@ -1368,7 +1395,8 @@ class lsmps_semi_implicit {
   /// Miyamoto & Koshizuka (arXiv:2302.14245, an MPS-family method with the incompressibility constraint as an
   /// LCP). By default without its release step: the set only grows within a step. With active_set_release,
   /// particles held at p = 0 whose row says they are compressed leave the set between the solves (the
-  /// primal–dual active-set iteration; measured in docs/lsmps_scheme.md). The repeats reuse the first build's
+  /// primal–dual active-set iteration; measured in docs/lsmps_scheme.md); with active_set_warm_start the set starts
+  /// from the one the last solve ended with, and the releases are tested after the first solve too. The repeats reuse the first build's
   /// rows (active_set_reuse_rows; 1.41× → 1.23× the wall time without the set at 4 mm), except after a release,
   /// which brings rows back: the next solve builds them all.
   void solve_pressure_with_set(double dt) {
@@ -1378,6 +1406,7 @@ class lsmps_semi_implicit {
     if (p_.own_loop.enabled)
       for (index_t i = 0; i < n; ++i)
         if (own_loop_dirichlet_[static_cast<std::size_t>(i)]) active_set_[static_cast<std::size_t>(i)] = 1;
+    const bool warm = p_.active_set_warm_start && warm_start_active_set() > 0;
     bool rebuild = false;  // a release brings rows back: the next solve builds them all again
     for (int repeat = 0;; ++repeat) {
       if (repeat == 0 || !p_.active_set_reuse_rows || rebuild) solve_pressure_once(dt);
@@ -1386,17 +1415,17 @@ class lsmps_semi_implicit {
       const bool last = repeat == p_.active_set_solves;  // what is found now is kept and counted
       // Releases first, among the particles held at p = 0 in this solve (not those joining now).
       release_.clear();
-      const long released = p_.active_set_release && repeat > 0 ? mark_active_set_releases(dt) : 0;
+      const long released = p_.active_set_release && (repeat > 0 || warm) ? mark_active_set_releases(dt) : 0;
       long joined = 0;
       for (index_t i = 0; i < (p_.active_set_copies ? nc_ : n); ++i)
         if (unk_[static_cast<std::size_t>(i)] != npos && pres[i] < 0.0) {
           ++joined;
           if (!last) active_set_[static_cast<std::size_t>(i)] = 1;
         }
-      if (joined == 0 && released == 0) return;
+      if (joined == 0 && released == 0) return keep_active_set();
       if (last) {  // a negative pressure, or a member its row would release (held at p = 0), is left: counted
         ++c_.active_set_unfinished;
-        return;
+        return keep_active_set();
       }
       for (const index_t i : release_) active_set_[static_cast<std::size_t>(i)] = 0;
       rebuild = released > 0;
@@ -1404,6 +1433,36 @@ class lsmps_semi_implicit {
       c_.active_set_released += released;
       ++c_.active_set_solves;
     }
+  }
+
+  /// lsmps_params::active_set_warm_start: holds at p = 0 the real fluid particles of held_ids_ (the set the
+  /// previous pressure solve ended with) that are neither surface nor isolated now. Returns their number.
+  index_t warm_start_active_set() {
+    const index_t n = s_.n_real();
+    const auto& ids = s_.ids();
+    index_t held = 0;
+    for (index_t i = 0; i < n; ++i) {
+      const std::size_t k = static_cast<std::size_t>(i);
+      if (!surface_[k] && !excluded_[k] && !active_set_[k] &&
+          std::binary_search(held_ids_.begin(), held_ids_.end(), ids[k])) {
+        active_set_[k] = 1;
+        ++held;
+      }
+    }
+    return held;
+  }
+
+  /// With lsmps_params::active_set_warm_start: the ids of the real particles the set holds at the end of this
+  /// solve (not the own-loop guard's), sorted, for the next solve's start.
+  void keep_active_set() {
+    if (!p_.active_set_warm_start) return;
+    const index_t n = s_.n_real();
+    const auto& ids = s_.ids();
+    held_ids_.clear();
+    for (index_t i = 0; i < n; ++i)
+      if (active_set_[static_cast<std::size_t>(i)] && !(p_.own_loop.enabled && own_loop_dirichlet_[static_cast<std::size_t>(i)]))
+        held_ids_.push_back(ids[static_cast<std::size_t>(i)]);
+    std::sort(held_ids_.begin(), held_ids_.end());
   }
 
   /// The releases of lsmps_params::active_set_release: the real fluid particles held at p = 0 by the active set
@@ -1937,6 +1996,7 @@ class lsmps_semi_implicit {
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
   points<D> collision_du_;                // Δu of the collision stage (9c)
   std::vector<std::uint8_t> active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
+  std::vector<particle_id> held_ids_;  // active_set_warm_start: the set the last pressure solve ended with (ids)
   std::vector<index_t> release_candidates_, release_;  // active_set_release: the set's fluid members, those released
   std::vector<op::row_entries> release_buf_;            // their rows (capacity kept across steps)
   std::vector<std::uint8_t> release_flag_;
