@@ -28,7 +28,8 @@
 // also over the largest connected body) and impulse error against single resolution.
 //
 // Usage: multires_dam_break [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1]
-//                           [--no-collide-isolated] [--no-shift-isolated] [--release] [--no-single] [--full] [--out DIR]
+//                           [--no-collide-isolated] [--no-shift-isolated] [--release] [--warm] [--no-single] [--full]
+//                           [--out DIR]
 //   --L      coarse diameter in mm (default 5; the block is then two particles wide)
 //   --ratio  coarse / fine diameter (default 2: 2.5 mm at the block; the fine single run costs 4 minutes to T = 3.8,
 //            at 2 mm about 9; with the earlier default walls neumann_points_wall_only_active_set the 2 mm single
@@ -50,6 +51,8 @@
 //   --release  lsmps_params::active_set_release on (opt-in): the active set also releases particles its rows say
 //            are compressed, the complementarity p >= 0, w >= 0 (docs/lsmps_scheme.md deviation 13; refused with
 //            wall options that have no active set)
+//   --warm   lsmps_params::active_set_warm_start on (opt-in; needs --release): each step's active set starts from
+//            the set the previous solve ended with (docs/lsmps_scheme.md deviation 13)
 //   The earlier default (to T = 2.4, before the impact): --walls neumann_points_wall_only_active_set --collision 0
 //            --no-shift-isolated --T 2.4
 //   --no-single the multi-resolution run alone
@@ -109,11 +112,11 @@ int main(int argc, char** argv) {
   const scheme::lsmps_params<2> defaults = scheme::lsmps_impact_params<2>();  // the options' defaults
   double L_mm = 5.0, ratio = 2.0, T_end = 3.8, r0_mm = 30.0, r1_mm = 60.0, collision = defaults.collision.alpha1;
   bool single = true, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
-  bool collide_isolated_asked = false, release = defaults.active_set_release;
+  bool collide_isolated_asked = false, release = defaults.active_set_release, warm = defaults.active_set_warm_start;
   std::string out = "out/multires_dam_break", walls = cases::tanaka_impact_walls;
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] "
-                 "[--no-shift-isolated] [--release] [--no-single] [--full] [--out DIR]\n",
+                 "[--no-shift-isolated] [--release] [--warm] [--no-single] [--full] [--out DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -126,6 +129,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
     else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
     else if (!std::strcmp(argv[a], "--release")) release = true;
+    else if (!std::strcmp(argv[a], "--warm")) warm = true;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--r0 abc` is refused, not read as 0); ranges below.
       const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
@@ -169,7 +173,7 @@ int main(int argc, char** argv) {
                 "collision alpha1 %g%s%s%s, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
                 "single resolution at %g and %g mm%s\n",
                 walls.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
-                shift_isolated ? ", isolated particles in the shifting penalty" : "", release ? ", active set with releases" : "", T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
+                shift_isolated ? ", isolated particles in the shifting penalty" : "", release ? (warm ? ", active set with releases, warm-started" : ", active set with releases") : "", T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
                 single ? "" : " skipped (--no-single)");
 
     std::vector<run_record> runs;
@@ -212,7 +216,8 @@ int main(int argc, char** argv) {
     p.collision.isolated = collide_isolated;
     p.shift_isolated_penalty = shift_isolated;
     p.active_set_release = release;
-    p.validate();  // --release with wall options that have no active set: refused before any run
+    p.active_set_warm_start = warm;
+    p.validate();  // --release with wall options that have no active set, --warm without --release: refused here
     scheme::lsmps_params<2> pm = p;
     cases::refine_around_block(pm, cfg_coarse, ratio, 1e-3 * r0_mm, 1e-3 * r1_mm);
     run.operator()<cases::obstacle_multires_scene>("multi", cfg_coarse, pm, true);
