@@ -301,9 +301,9 @@ struct lsmps_params {
   bool active_set_release = false;
   /// The active set starts each step from the previous step's (ours, opt-in; needs active_set_release;
   /// docs/lsmps_scheme.md deviation 13): the real fluid particles held at p = 0 by the set when the previous
-  /// step's pressure stage ended (by particle id, so splits, merges and removals need no mapping) are held again
-  /// from the first solve, if they are still neither surface nor isolated, and the releases are tested after
-  /// that first solve as well. Without it each step starts from an empty set; with releases, the first
+  /// pressure solve ended (the previous step's, or with the own-loop guard the previous round's; by particle id,
+  /// so splits, merges and removals need no mapping) are held again from the first solve, if they are still
+  /// neither surface nor isolated, and the releases are tested after that first solve as well. Without it each step starts from an empty set; with releases, the first
   /// (unconstrained) solve then pulls at nearly every fluid particle in the main example's run, the set takes
   /// almost the whole fluid and the releases free it again over five repeats (docs/resolution.md). Where the
   /// iteration converges both starts satisfy the same complementarity conditions. The set is part of the
@@ -1435,6 +1435,12 @@ class lsmps_semi_implicit {
     }
   }
 
+  /// Real particle i is held at p = 0 by the active set itself (not by the own-loop guard's Dirichlet rows).
+  bool active_set_member(index_t i) const {
+    const std::size_t k = static_cast<std::size_t>(i);
+    return active_set_[k] && !(p_.own_loop.enabled && own_loop_dirichlet_[k]);
+  }
+
   /// lsmps_params::active_set_warm_start: holds at p = 0 the real fluid particles of held_ids_ (the set the
   /// previous pressure solve ended with) that are neither surface nor isolated now. Returns their number.
   index_t warm_start_active_set() {
@@ -1460,8 +1466,7 @@ class lsmps_semi_implicit {
     const auto& ids = s_.ids();
     held_ids_.clear();
     for (index_t i = 0; i < n; ++i)
-      if (active_set_[static_cast<std::size_t>(i)] && !(p_.own_loop.enabled && own_loop_dirichlet_[static_cast<std::size_t>(i)]))
-        held_ids_.push_back(ids[static_cast<std::size_t>(i)]);
+      if (active_set_member(i)) held_ids_.push_back(ids[static_cast<std::size_t>(i)]);
     std::sort(held_ids_.begin(), held_ids_.end());
   }
 
@@ -1477,8 +1482,7 @@ class lsmps_semi_implicit {
     const auto& pres = s_.template get<field::pressure>();
     release_candidates_.clear();
     for (index_t i = 0; i < n; ++i)
-      if (active_set_[static_cast<std::size_t>(i)] && !(p_.own_loop.enabled && own_loop_dirichlet_[static_cast<std::size_t>(i)]))
-        release_candidates_.push_back(i);
+      if (active_set_member(i)) release_candidates_.push_back(i);
     const index_t m = static_cast<index_t>(release_candidates_.size());
     if (static_cast<index_t>(release_buf_.size()) < m) release_buf_.resize(static_cast<std::size_t>(m));
     release_flag_.assign(static_cast<std::size_t>(m), 0);
