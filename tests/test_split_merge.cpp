@@ -821,9 +821,42 @@ TEST_SUITE("split_merge") {
       CHECK(rep.refused_for(res::refusal::wall_contact) == 1);
       CHECK(w.s.n_real() == 2);
     }
-    SUBCASE("bad input: wall_contact below wall_clearance") {
+    // wall_contact_fallback (opt-in): of the directions the contact rule alone refused, the one whose nearer child
+    // is nearest the floor, if within wall_reach · L′ = L′ (the copy band of that child). Vertical (k = 18 of the
+    // 36 candidates, admissible: the upper child 0.9 − 0.247 = 0.653 l0 below the neighbour, e_i = 0.347 < α_e).
+    wide.wall_contact_fallback = true;
+    SUBCASE("h = 0.95 l0 with wall_contact_fallback: vertical, the lower child 0.703 l0 = 0.994 L′ from the floor, counted") {
+      auto w = setup(0.95 * l0);
+      const auto rep = w.run(wide, zero_grad<2>);
+      REQUIRE(rep.splits == 1);
+      CHECK(rep.contact_fallbacks == 1);
+      CHECK(std::abs(rep.split_events[0].t[0]) < 1e-15);
+      const double delta = 0.5 * 0.7 * Lc;  // eq. 67, α_t = 0.7
+      CHECK(lower_child(w, rep.split_events[0]) == doctest::Approx(0.95 * l0 - delta).epsilon(1e-12));
+      CHECK(lower_child(w, rep.split_events[0]) <= Lc);
+      CHECK(rep.refused_for(res::refusal::wall_contact) == 0);
+    }
+    SUBCASE("h = 0.99 l0 with wall_contact_fallback: the nearest child would be 1.05 L′ from the floor, beyond its copy band: refused") {
+      auto w = setup(0.99 * l0);
+      const auto rep = w.run(wide, zero_grad<2>);
+      CHECK(rep.splits == 0);
+      CHECK(rep.contact_fallbacks == 0);
+      CHECK(rep.refused_for(res::refusal::wall_contact) == 1);
+    }
+    SUBCASE("h = 0.62 l0 with wall_contact_fallback: a direction keeps contact, so the fallback is not used") {
+      auto w = setup(0.62 * l0);
+      p.wall_contact_fallback = true;
+      const auto rep = w.run(p, zero_grad<2>);
+      REQUIRE(rep.splits == 1);
+      CHECK(rep.contact_fallbacks == 0);
+      CHECK(lower_child(w, rep.split_events[0]) <= 0.75 * Lc + 1e-15);
+    }
+    SUBCASE("bad input: wall_contact below wall_clearance; the fallback without a contact rule") {
       p.wall_contact = 0.4;
       CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("wall_contact"), mpskit::error);
+      p.wall_contact = std::numeric_limits<double>::infinity();
+      p.wall_contact_fallback = true;
+      CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("wall_contact_fallback"), mpskit::error);
     }
   }
 

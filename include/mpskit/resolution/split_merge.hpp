@@ -196,6 +196,16 @@ struct split_merge_params {
   /// converging at step 162 (t = 0.068 s; not yet understood). Accepted [wall_clearance, inf]; 0.75 is the
   /// measured value for a fluid at rest.
   double wall_contact = std::numeric_limits<double>::infinity();
+  /// When the contact rule refuses every direction the other rules admit, split anyway along the direction whose
+  /// nearer child comes closest to the wall, if that child is within split_merge_inputs::wall_reach · L′ (the wall
+  /// model copies it: it holds the wall through its own copies). Ours, opt-in (needs a finite wall_contact).
+  /// Without it a parent whose centre lies between (wall_contact · L′ + δ) and wall_reach · L from a wall is in
+  /// contact but can never keep a child within wall_contact · L′ (δ = (α_t/2) L′, eq. 67; in 2D with α_w = 1 and
+  /// wall_contact = 0.75: between 0.78 L and L), so it stays coarse however small its target: measured
+  /// 2026-12-05, a 5 mm particle 4.58 mm above the floor inside the 1 mm zone of the obstacle case at ratio 5,
+  /// which squeezed two 0.88 mm particles against the floor until the run blew up (docs/resolution.md "Hard
+  /// cases"). Counted in split_merge_report::contact_fallbacks.
+  bool wall_contact_fallback = false;
   /// Pairing order of the merges (docs/resolution.md): alike_first (default, ours) or nearest.
   merge_partners partners = merge_partners::alike_first;
   bool split = true;  ///< allow splitting
@@ -217,6 +227,8 @@ struct split_merge_params {
     v.in_range("wall_clearance", wall_clearance, 0.0, 10.0);
     v.require(wall_contact >= wall_clearance, "wall_contact",
               mpskit::detail::concat("= ", wall_contact, ": must be in [wall_clearance = ", wall_clearance, ", inf]"));
+    v.require(!wall_contact_fallback || std::isfinite(wall_contact), "wall_contact_fallback",
+              "is on but wall_contact is infinite (no contact rule to fall back from): set wall_contact too");
     v.throw_if_any();
     ledger.validate();
   }
@@ -303,6 +315,7 @@ struct split_merge_report {
   index_t splits = 0;                      ///< splits done
   index_t merges = 0;                      ///< merges done
   index_t redirected = 0;                  ///< splits whose direction was chosen again against a neighbour's children
+  index_t contact_fallbacks = 0;           ///< splits done by split_merge_params::wall_contact_fallback
   std::array<index_t, refusal_count> refused{};  ///< wanted events not done, by reason
   std::vector<split_event<D>> split_events;      ///< every split, in old index order
   std::vector<merge_event<D>> merge_events;      ///< every merge, in pairing order
@@ -498,6 +511,7 @@ struct split_merge final {
       for (std::size_t k = 0; k < choice_.size(); ++k) {
         const split_choice& c = choice_[k];
         if (!c.ok) continue;
+        if (c.contact_fallback) ++rep_.contact_fallbacks;
         const index_t i = split_cand_[k];
         const vec<D> d = half_offset(i) * c.t;  // eq. 67 (the offset resolve_neighbour_splits assumed)
         const mat<D> G = grad_u(i);
@@ -645,6 +659,7 @@ struct split_merge final {
       refusal why = refusal::error_function;
       vec<D> t = vec<D>::Zero();
       double e = 1.0;
+      bool contact_fallback = false;  // chosen by split_merge_params::wall_contact_fallback
     };
     struct pair_t {
       index_t i = npos, j = npos;  // i: lower id
@@ -752,6 +767,10 @@ struct split_merge final {
       const double reach = in_.walls ? in_.wall_reach * Li : 0.0;
       const bool contact = in_.walls && std::isfinite(p_.wall_contact) &&
                            in_.walls->signed_distance(vec<D>(x.col(i))) <= reach;
+      // wall_contact_fallback: of the directions refused by the contact rule alone, the one whose nearer child is
+      // nearest the wall (the first in the e_i order on ties), if that child is within wall_reach · L′.
+      std::size_t fallback = nc;
+      double fallback_distance = in_.wall_reach * Lc;
       for (;;) {
         std::size_t best = nc;
         for (std::size_t c = 0; c < nc; ++c) {
@@ -773,12 +792,24 @@ struct split_merge final {
           if (contact && !(std::min(sp, sm) <= p_.wall_contact * Lc)) {
             out_of_play[best] = 1;
             lost_contact = true;
+            if (p_.wall_contact_fallback && std::min(sp, sm) <= fallback_distance &&
+                (fallback == nc || std::min(sp, sm) < fallback_distance)) {
+              fallback = best;
+              fallback_distance = std::min(sp, sm);
+            }
             continue;
           }
         }
         out.ok = true;
         out.t = (*cand)[best];
         out.e = e_of(rho[best]);
+        return out;
+      }
+      if (fallback != nc) {
+        out.ok = true;
+        out.t = (*cand)[fallback];
+        out.e = e_of(rho[fallback]);
+        out.contact_fallback = true;
         return out;
       }
       out.why = !any_admissible ? refusal::error_function : lost_contact ? refusal::wall_contact : refusal::wall;
