@@ -28,7 +28,7 @@
 // also over the largest connected body) and impulse error against single resolution.
 //
 // Usage: multires_dam_break [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1]
-//                           [--no-collide-isolated] [--no-shift-isolated] [--release] [--warm] [--no-single] [--full]
+//                           [--no-collide-isolated] [--no-shift-isolated] [--release] [--warm] [--contact-fallback] [--no-single] [--full]
 //                           [--out DIR]
 //   --L      coarse diameter in mm (default 5; the block is then two particles wide)
 //   --ratio  coarse / fine diameter (default 2: 2.5 mm at the block; the fine single run costs 4 minutes to T = 3.8,
@@ -53,11 +53,16 @@
 //            wall options that have no active set)
 //   --warm   lsmps_params::active_set_warm_start on (opt-in; needs --release): each step's active set starts from
 //            the set the previous solve ended with (docs/lsmps_scheme.md deviation 13)
+//   --contact-fallback  split_merge_params::wall_contact_fallback on (opt-in): a particle near a wall that no
+//            direction lets keep a child within wall_contact L' splits toward the wall if its nearer child is then
+//            copied (docs/resolution.md "Hard cases" 2b); without it a coarse particle can stay coarse in the fine zone
 //   The earlier default (to T = 2.4, before the impact): --walls neumann_points_wall_only_active_set --collision 0
 //            --no-shift-isolated --T 2.4
 //   --no-single the multi-resolution run alone
 //   --full   the paper's sizes: L = 5 mm, ratio 5 (1 mm at the block), the single-resolution reference at 1 mm
-//            (24 969 particles in the paper); hours on two cores, and not expected to get through yet
+//            (24 969 particles in the paper; the single runs take hours); the multi-resolution run alone
+//            (--full --no-single) blows up at T = 3.106 (measured 2026-12-05; docs/resolution.md "The main example at
+//            the paper's ratio")
 // Exit status 0 when the multi-resolution run reached T_end, 1 otherwise (the summary says where each failed).
 #include <algorithm>
 #include <chrono>
@@ -113,10 +118,11 @@ int main(int argc, char** argv) {
   double L_mm = 5.0, ratio = 2.0, T_end = 3.8, r0_mm = 30.0, r1_mm = 60.0, collision = defaults.collision.alpha1;
   bool single = true, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
   bool collide_isolated_asked = false, release = defaults.active_set_release, warm = defaults.active_set_warm_start;
+  bool contact_fallback = false;
   std::string out = "out/multires_dam_break", walls = cases::tanaka_impact_walls;
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] "
-                 "[--no-shift-isolated] [--release] [--warm] [--no-single] [--full] [--out DIR]\n",
+                 "[--no-shift-isolated] [--release] [--warm] [--contact-fallback] [--no-single] [--full] [--out DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -130,6 +136,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
     else if (!std::strcmp(argv[a], "--release")) release = true;
     else if (!std::strcmp(argv[a], "--warm")) warm = true;
+    else if (!std::strcmp(argv[a], "--contact-fallback")) contact_fallback = true;
     else {
       // Numbers: the whole text, finite (cases/cli.hpp: `--r0 abc` is refused, not read as 0); ranges below.
       const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
@@ -170,11 +177,11 @@ int main(int argc, char** argv) {
     fs::create_directories(out);
     io::vtk_series vtk(fs::path(out) / "multires_dam_break");
     std::printf("mpskit: Tanaka's dam break with the 10 x 10 mm obstacle (Tanaka 2018 sec. 5.6.2), LSMPS scheme, walls '%s', "
-                "collision alpha1 %g%s%s%s, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm; "
+                "collision alpha1 %g%s%s%s, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of the block's centre, ramp to %g mm%s; "
                 "single resolution at %g and %g mm%s\n",
                 walls.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
-                shift_isolated ? ", isolated particles in the shifting penalty" : "", release ? (warm ? ", active set with releases, warm-started" : ", active set with releases") : "", T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm, L_mm, L_mm / ratio,
-                single ? "" : " skipped (--no-single)");
+                shift_isolated ? ", isolated particles in the shifting penalty" : "", release ? (warm ? ", active set with releases, warm-started" : ", active set with releases") : "", T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm,
+                contact_fallback ? ", wall-contact fallback" : "", L_mm, L_mm / ratio, single ? "" : " skipped (--no-single)");
 
     std::vector<run_record> runs;
     const auto run = [&]<class Scene>(const char* name, const cases::tanaka_dam_break_config& cfg,
@@ -220,6 +227,7 @@ int main(int argc, char** argv) {
     p.validate();  // --release with wall options that have no active set, --warm without --release: refused here
     scheme::lsmps_params<2> pm = p;
     cases::refine_around_block(pm, cfg_coarse, ratio, 1e-3 * r0_mm, 1e-3 * r1_mm);
+    pm.resolution.wall_contact_fallback = contact_fallback;  // (refine_around_block sets wall_contact = 0.75)
     run.operator()<cases::obstacle_multires_scene>("multi", cfg_coarse, pm, true);
     if (single) {
       run.operator()<lsmps_defaults<2>>("coarse", cfg_coarse, p, false);
