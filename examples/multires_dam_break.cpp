@@ -60,7 +60,7 @@
 //            --no-shift-isolated --T 2.4
 //   --no-single the multi-resolution run alone
 //   --full   the paper's sizes: L = 5 mm, ratio 5 (1 mm at the block), the single-resolution reference at 1 mm
-//            (24 969 particles in the paper; the single runs take hours); the multi-resolution run alone
+//            (24 969 particles in the paper; the 1 mm single run takes more than two hours on one core); the multi-resolution run alone
 //            (--full --no-single) blows up at T = 3.106 (measured 2026-12-05; docs/resolution.md "The main example at
 //            the paper's ratio")
 // Exit status 0 when the multi-resolution run reached T_end, 1 otherwise (the summary says where each failed).

@@ -201,10 +201,11 @@ struct split_merge_params {
   /// model copies it: it holds the wall through its own copies). Ours, opt-in (needs a finite wall_contact).
   /// Without it a parent whose centre lies between (wall_contact · L′ + δ) and wall_reach · L from a wall is in
   /// contact but can never keep a child within wall_contact · L′ (δ = (α_t/2) L′, eq. 67; in 2D with α_w = 1 and
-  /// wall_contact = 0.75: between 0.78 L and L), so it stays coarse however small its target: measured
-  /// 2026-12-05, a 5 mm particle 4.58 mm above the floor inside the 1 mm zone of the obstacle case at ratio 5,
-  /// which squeezed two 0.88 mm particles against the floor until the run blew up (docs/resolution.md "Hard
-  /// cases"). Counted in split_merge_report::contact_fallbacks.
+  /// wall_contact = 0.75: between 0.78 L and L), so it stays coarse however small its target: seen 2026-12-05, a
+  /// 5 mm particle 4.6 mm above the floor at the edge of the 1 mm zone of the obstacle case at ratio 5, beside two
+  /// 0.88 mm particles that left at 73 and 169 m/s in the step the run blew up (the refusal inferred, not printed;
+  /// docs/resolution.md "Hard cases" 2b). Counted in split_merge_report::contact_fallbacks. The nearest child is
+  /// chosen, not the least e_i within the copy band (an alternative, not measured).
   bool wall_contact_fallback = false;
   /// Pairing order of the merges (docs/resolution.md): alike_first (default, ours) or nearest.
   merge_partners partners = merge_partners::alike_first;
