@@ -851,6 +851,37 @@ TEST_SUITE("split_merge") {
       CHECK(rep.contact_fallbacks == 0);
       CHECK(lower_child(w, rep.split_events[0]) <= 0.75 * Lc + 1e-15);
     }
+    SUBCASE("a corner with the fallback: the child nearest either wall (the left one), not the least e_i (vertical)") {
+      // Parent 0.85 l0 from the left wall and 0.90 l0 above the floor, one neighbour 0.9 l0 to its right: the least
+      // e_i is vertical (0.067), horizontal has 0.347 < α_e. Every direction is refused by the contact rule (the
+      // nearest any child comes: 0.85 − 0.247 = 0.602 l0 > 0.530 l0); the fallback takes the one whose child comes
+      // nearest a wall: horizontal, 0.602 l0 = 0.852 L′ from the left wall (vertical: 0.652 l0 from the floor).
+      world<2> w;
+      points<2> x(2, 2);
+      x.col(0) = vec<2>(0.85 * l0, 0.90 * l0);
+      x.col(1) = vec<2>(1.75 * l0, 0.90 * l0);
+      w.s = make_state<2>(x, l0 * l0);
+      w.walls = &tank;
+      auto q = split_at<2>(vec<2>(0.0, 0.0), 1.5 * l0);
+      q.wall_contact = 0.75;
+      q.wall_contact_fallback = true;
+      const auto rep = w.run(q, zero_grad<2>);
+      REQUIRE(rep.splits == 1);
+      CHECK(rep.contact_fallbacks == 1);
+      const auto& ev = rep.split_events[0];
+      MESSAGE("t = " << ev.t.transpose() << ", e_i = " << ev.e << ", nearer child " << lower_child(w, ev) / Lc << " L′");
+      CHECK(std::abs(ev.t[1]) < 1e-15);
+      const double delta = 0.5 * 0.7 * Lc;  // eq. 67, α_t = 0.7
+      CHECK(lower_child(w, ev) == doctest::Approx(0.85 * l0 - delta).epsilon(1e-12));
+      CHECK(ev.e == doctest::Approx(1.0 - (0.9 * l0 - delta) / l0).epsilon(1e-12));
+      q.wall_contact_fallback = false;  // the same parent without the fallback: refused by the contact rule
+      world<2> v;
+      v.s = make_state<2>(x, l0 * l0);
+      v.walls = &tank;
+      const auto without = v.run(q, zero_grad<2>);
+      CHECK(without.splits == 0);
+      CHECK(without.refused_for(res::refusal::wall_contact) == 1);
+    }
     SUBCASE("bad input: wall_contact below wall_clearance; the fallback without a contact rule") {
       p.wall_contact = 0.4;
       CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("wall_contact"), mpskit::error);

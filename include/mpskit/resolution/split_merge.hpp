@@ -769,9 +769,10 @@ struct split_merge final {
       const bool contact = in_.walls && std::isfinite(p_.wall_contact) &&
                            in_.walls->signed_distance(vec<D>(x.col(i))) <= reach;
       // wall_contact_fallback: of the directions refused by the contact rule alone, the one whose nearer child is
-      // nearest the wall (the first in the e_i order on ties), if that child is within wall_reach · L′.
+      // nearest the wall (the first in the e_i order on ties), if that child is within wall_reach · L′: the bound
+      // is one ulp above wall_reach · L′, so that one strict comparison admits the first direction at that distance.
       std::size_t fallback = nc;
-      double fallback_distance = in_.wall_reach * Lc;
+      double fallback_distance = std::nextafter(in_.wall_reach * Lc, std::numeric_limits<double>::infinity());
       for (;;) {
         std::size_t best = nc;
         for (std::size_t c = 0; c < nc; ++c) {
@@ -790,13 +791,13 @@ struct split_merge final {
             out_of_play[best] = 1;
             continue;
           }
-          if (contact && !(std::min(sp, sm) <= p_.wall_contact * Lc)) {
+          const double nearer = std::min(sp, sm);  // the nearer child's distance from the wall
+          if (contact && !(nearer <= p_.wall_contact * Lc)) {
             out_of_play[best] = 1;
             lost_contact = true;
-            if (p_.wall_contact_fallback && std::min(sp, sm) <= fallback_distance &&
-                (fallback == nc || std::min(sp, sm) < fallback_distance)) {
+            if (p_.wall_contact_fallback && nearer < fallback_distance) {
               fallback = best;
-              fallback_distance = std::min(sp, sm);
+              fallback_distance = nearer;
             }
             continue;
           }
