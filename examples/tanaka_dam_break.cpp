@@ -9,7 +9,7 @@
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
 // Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm]
-//                         [--no-shift-isolated] [--obstacle] [--full] [--trace U] [--slab N [--slab-walls]]
+//                         [--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]]
 //                         [--out DIR] [--data DIR]
 // The defaults (since 2026-12-03) are the main example's options, scheme::lsmps_impact_params<2>(): the wall variant
 // two_point_wall_only_active_set_own_loop_copies_conditioned_limited, the collision stage at alpha1 0.5 with
@@ -45,6 +45,9 @@
 //            28 of 65 samples, the probe noisy; 66 min on two threads; docs/lsmps_scheme.md). With the defaults
 //            (isolated particles colliding and in the penalty too) 1.5 mm reaches T = 3.2 with no guard activation
 //            (25 min on one thread, the front in the band at 27 of 65 samples; docs/validation.md); 1 mm not run.
+//   --fallback  the scene with ppe::with_fallback<bicgstab_jacobi, sparse_lu> (docs/run.md): a step whose
+//            BiCGSTAB-Jacobi solve fails (not converged within the cap, or broken down) is solved by SparseLU, counted
+//            in the summary; a run whose iterative solves all succeed is the same as without it. 2D only.
 //   --slab   N: the 3D slab instead (cases/tanaka_dam_break_slab.hpp: the vessel extruded over N layers, periodic
 //            in y, or between two end walls with --slab-walls; ours) with scheme::lsmps_impact_params<3>() or, with
 //            --walls parent_gradient, Tanaka's Table 2, and the flags above; a ParaView series, front.csv and a
@@ -72,11 +75,18 @@
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
+#include "mpskit/ppe/fallback.hpp"
+#include "mpskit/ppe/sparse_lu.hpp"
 
 namespace fs = std::filesystem;
 using namespace mpskit;
 
 namespace {
+/// --fallback: the default scene with SparseLU behind BiCGSTAB-Jacobi (ppe::with_fallback, docs/run.md).
+struct fallback_scene : lsmps_defaults<2> {
+  using solver = ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu>;
+};
+
 
 /// --slab N: the 3D slab (cases/tanaka_dam_break_slab.hpp), N layers deep, with the library's impact configuration
 /// scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2 (lsmps_params<3>{}); the
@@ -153,11 +163,11 @@ int main(int argc, char** argv) {
   double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = defaults.collision.alpha1, lid_mm = 0.0, slab = 0.0;
   bool slab_asked = false, slab_walls = false;
   bool trace = false, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
-  bool obstacle = false, collide_isolated_asked = false;
+  bool obstacle = false, collide_isolated_asked = false, fallback = false;
   std::string walls_name = cases::tanaka_impact_walls, data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm] "
-                         "[--no-shift-isolated] [--obstacle] [--full] [--trace U] [--slab N [--slab-walls]] [--out DIR] [--data DIR]\n",
+                         "[--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -165,6 +175,7 @@ int main(int argc, char** argv) {
     const bool has_value = a + 1 < argc;
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
+    else if (!std::strcmp(argv[a], "--fallback")) fallback = true;
     else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
     else if (!std::strcmp(argv[a], "--no-collide-isolated")) collide_isolated = collide_isolated_asked = false;
     else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
@@ -211,7 +222,8 @@ int main(int argc, char** argv) {
     if (slab_asked) {  // the 3D slab: its own path (the probe, the trace and the pictures are 2D)
       if (!(slab >= 1.0 && slab <= 1000.0 && slab == std::floor(slab)))
         fail("tanaka_dam_break: --slab ", slab, ": the number of layers must be a whole number in [1, 1000]");
-      if (obstacle || trace) fail("tanaka_dam_break: --slab takes neither --obstacle nor --trace (2D only)");
+      if (obstacle || trace || fallback)
+        fail("tanaka_dam_break: --slab takes neither --obstacle, --trace nor --fallback (2D only)");
     } else if (slab_walls) {
       fail("tanaka_dam_break: --slab-walls needs --slab N");
     }
@@ -274,7 +286,9 @@ int main(int argc, char** argv) {
                 obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(),
                 collision, collide_isolated ? " (isolated particles too)" : "",
                 shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end);
-    const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(cfg, T_end, p, true, observe);
+    const cases::tanaka_dam_break_result r =
+        fallback ? cases::run_tanaka_dam_break<fallback_scene>(cfg, T_end, p, true, observe)
+                 : cases::run_tanaka_dam_break(cfg, T_end, p, true, observe);
     progress.finish();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const std::vector<double>& probe_t = obstacle ? obstacle_t : r.probe_t;
@@ -344,6 +358,7 @@ int main(int argc, char** argv) {
     std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld (docs/run.md); shifted velocities clipped %ld; "
                 "colliding pairs %ld\n",
                 r.ppe_breakdown_restarts, r.shift_velocity_clipped, r.collisions);
+    if (fallback) std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
     if (std::isfinite(m.t_arrival))
       std::printf("  probe (%.0f, %.0f) mm wet at T = %.3f; over the next 10 ms%s: impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered "
                   "peak %.0f Pa, every-100-steps peak %.0f Pa (Tanaka: %.0f Pa at 1 mm, every 100 steps)\n",
