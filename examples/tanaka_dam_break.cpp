@@ -45,8 +45,9 @@
 //            28 of 65 samples, the probe noisy; 66 min on two threads; docs/lsmps_scheme.md). With the defaults
 //            (isolated particles colliding and in the penalty too) 1.5 mm reaches T = 3.2 with no guard activation
 //            (25 min on one thread, the front in the band at 27 of 65 samples; docs/validation.md); 1 mm (2026-12-05, two
-//            threads) fails at T = 1.498 (BiCGSTAB-Jacobi not converging), and with --fallback reaches T = 3.2 (67 min,
-//            3 LU solves, no guard activation, closest pair 0.410 L, band 28 of 65; docs/lsmps_scheme.md).
+//            threads) fails at T = 1.498 (BiCGSTAB-Jacobi not converging), and with --fallback reaches T = 3.2 (67 min
+//            with another job beside it, 3 LU solves, no guard activation, closest pair 0.410 L, band 28 of 65;
+//            docs/lsmps_scheme.md).
 //   --fallback  the scene with ppe::with_fallback<bicgstab_jacobi, sparse_lu> (docs/run.md): a step whose
 //            BiCGSTAB-Jacobi solve fails (not converged within the cap, or broken down) is solved by SparseLU, counted
 //            in the summary; a run whose iterative solves all succeed is the same as without it. 2D only.
@@ -284,10 +285,11 @@ int main(int argc, char** argv) {
     p.collision.isolated = collide_isolated;
     p.shift_isolated_penalty = shift_isolated;
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
-                "walls '%s', collision alpha1 %g%s%s, to T = %g\n",
+                "walls '%s', collision alpha1 %g%s%s%s, to T = %g\n",
                 obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(),
                 collision, collide_isolated ? " (isolated particles too)" : "",
-                shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end);
+                shift_isolated ? ", isolated particles in the shifting penalty" : "",
+                fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : "", T_end);
     const cases::tanaka_dam_break_result r =
         fallback ? cases::run_tanaka_dam_break<fallback_scene>(cfg, T_end, p, true, observe)
                  : cases::run_tanaka_dam_break(cfg, T_end, p, true, observe);

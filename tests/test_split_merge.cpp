@@ -854,8 +854,8 @@ TEST_SUITE("split_merge") {
     SUBCASE("a corner with the fallback: the child nearest either wall (the left one), not the least e_i (vertical)") {
       // Parent 0.85 l0 from the left wall and 0.90 l0 above the floor, one neighbour 0.9 l0 to its right: the least
       // e_i is vertical (0.067), horizontal has 0.347 < α_e. Every direction is refused by the contact rule (the
-      // nearest any child comes: 0.85 − 0.247 = 0.602 l0 > 0.530 l0); the fallback takes the one whose child comes
-      // nearest a wall: horizontal, 0.602 l0 = 0.852 L′ from the left wall (vertical: 0.652 l0 from the floor).
+      // nearest any child comes: 0.85 − 0.2475 = 0.6025 l0 > 0.530 l0); the fallback takes the one whose child comes
+      // nearest a wall: horizontal, 0.6025 l0 = 0.852 L′ from the left wall (vertical: 0.6525 l0 from the floor).
       world<2> w;
       points<2> x(2, 2);
       x.col(0) = vec<2>(0.85 * l0, 0.90 * l0);

@@ -205,7 +205,7 @@ struct split_merge_params {
   /// 5 mm particle 4.6 mm above the floor at the edge of the 1 mm zone of the obstacle case at ratio 5, beside two
   /// 0.88 mm particles that left at 73 and 169 m/s in the step the run blew up (the refusal inferred, not printed;
   /// docs/resolution.md "Hard cases" 2b). Counted in split_merge_report::contact_fallbacks. The nearest child is
-  /// chosen, not the least e_i within the copy band (an alternative, not measured).
+  /// chosen, not the least e_i within the copy band (that alternative was run at one spacing only, "Hard cases" 2b).
   bool wall_contact_fallback = false;
   /// Pairing order of the merges (docs/resolution.md): alike_first (default, ours) or nearest.
   merge_partners partners = merge_partners::alike_first;
