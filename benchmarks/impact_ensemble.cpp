@@ -27,18 +27,10 @@
 #include <vector>
 
 #include "cases/tanaka_dam_break_run.hpp"
-#include "mpskit/ppe/fallback.hpp"
-#include "mpskit/ppe/sparse_lu.hpp"
+#include "cases/tanaka_fallback_scene.hpp"
 #include "reporter.hpp"
 
 using namespace mpskit;
-
-namespace {
-/// The default scene with SparseLU behind BiCGSTAB-Jacobi (--fallback).
-struct fallback_scene : lsmps_defaults<2> {
-  using solver = ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu>;
-};
-}  // namespace
 
 int main(int argc, char** argv) {
   try {
@@ -93,7 +85,7 @@ int main(int argc, char** argv) {
       };
       const auto t0 = std::chrono::steady_clock::now();
       const cases::tanaka_dam_break_result r =
-          fallback ? cases::run_tanaka_dam_break<fallback_scene>(c, T_end, p, true, observe)
+          fallback ? cases::run_tanaka_dam_break<cases::tanaka_fallback_scene>(c, T_end, p, true, observe)
                    : cases::run_tanaka_dam_break(c, T_end, p, true, observe);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::printf("%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f,%ld,%ld,%ld,%ld,%d,%ld,%ld,%ld,%g,%ld\n", walls.name.c_str(),

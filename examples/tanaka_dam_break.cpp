@@ -75,22 +75,15 @@
 #include "cases/dam_break.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "cases/tanaka_dam_break_slab.hpp"
+#include "cases/tanaka_fallback_scene.hpp"
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
-#include "mpskit/ppe/fallback.hpp"
-#include "mpskit/ppe/sparse_lu.hpp"
 
 namespace fs = std::filesystem;
 using namespace mpskit;
 
 namespace {
-/// --fallback: the default scene with SparseLU behind BiCGSTAB-Jacobi (ppe::with_fallback, docs/run.md).
-struct fallback_scene : lsmps_defaults<2> {
-  using solver = ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu>;
-};
-
-
 /// --slab N: the 3D slab (cases/tanaka_dam_break_slab.hpp), N layers deep, with the library's impact configuration
 /// scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2 (lsmps_params<3>{}); the
 /// collision and isolated-particle flags as in 2D. Writes a ParaView series every 0.25 in T and the front against the
@@ -291,7 +284,7 @@ int main(int argc, char** argv) {
                 shift_isolated ? ", isolated particles in the shifting penalty" : "",
                 fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : "", T_end);
     const cases::tanaka_dam_break_result r =
-        fallback ? cases::run_tanaka_dam_break<fallback_scene>(cfg, T_end, p, true, observe)
+        fallback ? cases::run_tanaka_dam_break<cases::tanaka_fallback_scene>(cfg, T_end, p, true, observe)
                  : cases::run_tanaka_dam_break(cfg, T_end, p, true, observe);
     progress.finish();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
