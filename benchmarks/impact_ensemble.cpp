@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
       std::printf("walls,bound,taper,max_condition,courant,filter_strength,shift_limit,L_mm,reached,T_last,steps,guarded,"
                   "max_u_sqrt_gH,T_max_u,p_min_rho_g_H,min_pair_ratio,wall_s,own_loop_checked,own_loop_dirichlet,"
                   "own_loop_one_point,own_loop_solves,fallback,ppe_fallbacks,ppe_breakdown_restarts,shift_velocity_clipped,"
-                  "collision_alpha1,collisions\n");
+                  "collision_alpha1,collisions,ppe_cold_restarts\n");
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
     for (const double L_mm : spacings) {
       cases::tanaka_dam_break_config c;
@@ -88,13 +88,13 @@ int main(int argc, char** argv) {
           fallback ? cases::run_tanaka_dam_break<cases::tanaka_fallback_scene>(c, T_end, p, true, observe)
                    : cases::run_tanaka_dam_break(c, T_end, p, true, observe);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::printf("%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f,%ld,%ld,%ld,%ld,%d,%ld,%ld,%ld,%g,%ld\n", walls.name.c_str(),
+      std::printf("%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f,%ld,%ld,%ld,%ld,%d,%ld,%ld,%ld,%g,%ld,%ld\n", walls.name.c_str(),
                   bound, taper,
                   max_condition > 0.0 ? max_condition : p.op.max_condition, courant, filter_eps, shift_limit, L_mm, r.failed ? 0 : 1,
                   r.failed ? r.T_failed : T_end, r.steps, r.guarded, u_max / sqrt_gH, T_u, r.p_min / r.rho_g_h,
                   r.min_pair_ratio, wall, r.own_loop_checked, r.own_loop_dirichlet, r.own_loop_one_point, r.own_loop_solves,
                   fallback ? 1 : 0, r.ppe_fallbacks, r.ppe_breakdown_restarts, r.shift_velocity_clipped,
-                  collision, r.collisions);
+                  collision, r.collisions, r.ppe_cold_restarts);
       std::fflush(stdout);
       if (r.failed) std::fprintf(stderr, "L = %g mm, T = %.4f: %s\n", L_mm, r.T_failed, r.failure.c_str());
     }

@@ -352,9 +352,9 @@ int main(int argc, char** argv) {
     std::printf("  wall-crossing guard activations %ld; active-set rows %ld; particles removed over the side walls "
                 "%ld\n",
                 r.guarded, r.active_set_rows, r.left_domain);
-    std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld (docs/run.md); shifted velocities clipped %ld; "
-                "colliding pairs %ld\n",
-                r.ppe_breakdown_restarts, r.shift_velocity_clipped, r.collisions);
+    std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld, after not converging from the warm start "
+                "%ld (docs/run.md); shifted velocities clipped %ld; colliding pairs %ld\n",
+                r.ppe_breakdown_restarts, r.ppe_cold_restarts, r.shift_velocity_clipped, r.collisions);
     if (fallback) std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
     if (std::isfinite(m.t_arrival))
       std::printf("  probe (%.0f, %.0f) mm wet at T = %.3f; over the next 10 ms%s: impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered "

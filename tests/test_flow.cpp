@@ -517,6 +517,74 @@ TEST_SUITE("solver") {
     CHECK(cold.breakdown_restarts() == 0);
   }
 
+  TEST_CASE("solver: a warm-started solve that does not converge is repeated from 0 (cold_restart)") {
+    // BiCGSTAB-Jacobi on the convection–diffusion matrix (20 × 20 grid), b = A u. From 0 it converges in k0
+    // iterations; from a warm start 1e6 |u| off it has 1e6 more to reduce, so capped at k0 iterations it fails.
+    // With cold_restart (the default) that failure is repeated from x = 0 with a fresh budget of k0: the same
+    // iterations and the same iterate as the solve from 0, bitwise (one solver, one matrix, one preconditioner).
+    const int g = 20;
+    const ppe::matrix A = convection_diffusion(g);
+    const Eigen::VectorXd u = known_solution(g * g);
+    const Eigen::VectorXd b = A * u;
+    Eigen::VectorXd w(g * g);
+    for (int k = 0; k < g * g; ++k) w[k] = std::cos(0.11 * k);
+    const Eigen::VectorXd x0 = u + 1e6 * u.norm() / w.norm() * w;
+    ppe::solver_params sp;  // the default
+    REQUIRE(sp.cold_restart);
+    ppe::bicgstab_jacobi free(sp);
+    REQUIRE(free.compute(A) == Eigen::Success);
+    Eigen::VectorXd xz = Eigen::VectorXd::Zero(g * g);
+    const ppe::solve_report rz = free.solve(b, xz);
+    REQUIRE(rz.info == Eigen::Success);
+    CHECK(!rz.cold_restart);  // from 0: nothing to restart
+    const long k0 = rz.iterations;
+    MESSAGE("BiCGSTAB-Jacobi from 0: " << k0 << " iterations");
+    ppe::solver_params capped = sp;
+    capped.max_iterations = k0;
+    ppe::solver_params off = capped;
+    off.cold_restart = false;
+    ppe::bicgstab_jacobi plain(off);
+    REQUIRE(plain.compute(A) == Eigen::Success);
+    Eigen::VectorXd xp = x0;
+    const ppe::solve_report rp = plain.solve(b, xp);
+    CHECK(rp.info == Eigen::NoConvergence);
+    CHECK(!rp.cold_restart);
+    CHECK(plain.cold_restarts() == 0);
+    ppe::bicgstab_jacobi cold(capped);
+    REQUIRE(cold.compute(A) == Eigen::Success);
+    Eigen::VectorXd x = x0;
+    const ppe::solve_report r = cold.solve(b, x);
+    CHECK(r.info == Eigen::Success);
+    CHECK(r.cold_restart);
+    CHECK(!r.breakdown_restart);
+    CHECK(r.iterations == rp.iterations + k0);  // the failed attempt's and the restart's
+    CHECK(r.residual <= capped.tolerance);
+    CHECK(x == xz);  // the restart is the solve from 0
+    CHECK(cold.cold_restarts() == 1);
+    // Through ppe::with_fallback (BiCGSTAB-Jacobi, then SparseLU): the restart succeeds first, the flag passes on.
+    ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu> fb(capped);
+    REQUIRE(fb.compute(A) == Eigen::Success);
+    Eigen::VectorXd xf = x0;
+    const ppe::solve_report rf = fb.solve(b, xf);
+    CHECK(rf.cold_restart);
+    CHECK(!rf.fallback);
+    CHECK(fb.fallbacks() == 0);
+    // Capped at 3 iterations the restart fails too and the error says so; from 0 there is no restart.
+    ppe::solver_params three = sp;
+    three.max_iterations = 3;
+    const auto row = [](index_t r) { return "row " + std::to_string(r); };
+    ppe::bicgstab_jacobi twice(three);
+    Eigen::VectorXd xt = x0;
+    CHECK_THROWS_WITH_AS(ppe::solve_checked(twice, A, b, xt, three, 6, 0.0, row),
+                         doctest::Contains("(also after a restart from 0, solver_params::cold_restart)"), mpskit::error);
+    CHECK(twice.cold_restarts() == 1);
+    ppe::bicgstab_jacobi once(three);
+    Eigen::VectorXd x3 = Eigen::VectorXd::Zero(g * g);
+    CHECK_THROWS_WITH_AS(ppe::solve_checked(once, A, b, x3, three, 7, 0.0, row), doctest::Contains("did not converge at step 7"),
+                         mpskit::error);
+    CHECK(once.cold_restarts() == 0);
+  }
+
   TEST_CASE("solver: with_fallback solves with the direct solver only when the iterative one fails") {
     // ppe/fallback.hpp with BiCGSTAB-Jacobi and Eigen's SparseLU on a non-symmetric convection-diffusion matrix
     // (20 × 20 grid), b = A u for a known u.

@@ -441,10 +441,10 @@ TEST_SUITE("projection_stability") {
 
   TEST_CASE("solver fallback: a failed Krylov solve is made by the direct solver and counted (ppe_fallbacks)") {
     // ppe::with_fallback in a scene: the 90 degree tank with gravity from rest, 20 steps. With BiCGSTAB capped at
-    // one iteration every solve fails and SparseLU makes it: counted once per solve, and the pressures are
-    // UMFPACK's (another direct solver) to rounding. Tolerance 1e-9 ρ g H: measured 7.6e-14 (SparseLU against
-    // UMFPACK, both to residuals ≤ 1e-10, rest_params) and 6.5e-13 (BiCGSTAB to 1e-10), four orders of margin
-    // for other compilers' rounding, while the failed one-iteration iterate is off by O(1) (label solver's test).
+    // one iteration every solve fails (the cold restart from 0 too) and SparseLU makes it: counted once per solve,
+    // and the pressures are UMFPACK's (another direct solver) to rounding. Tolerance 1e-9 ρ g H: measured 7.6e-14
+    // (SparseLU against UMFPACK, both to residuals ≤ 1e-10, rest_params) and 6.5e-13 (BiCGSTAB to 1e-10), four
+    // orders of margin for other compilers' rounding, while the failed one-iteration iterate is off by O(1) (label solver's test).
     // Uncapped, BiCGSTAB converges every step and the fallback is never used.
     const auto tc = tank_2d(90.0);
     const auto tank = cases::make_polygon_tank<2>(tc);
@@ -475,7 +475,11 @@ TEST_SUITE("projection_stability") {
     REQUIRE(capped.state().n_real() == n);
     CHECK(capped.counters().steps == steps);
     CHECK(capped.counters().ppe_fallbacks == steps);  // one PPE solve per step here (no active set, no guard)
-    CHECK(capped.counters().ppe_iterations == steps);  // the capped primary's single iteration each time
+    // Every solve but the first (from the rest state's p = 0) starts from the previous pressures, fails and is
+    // repeated from 0 (solver_params::cold_restart, one iteration again) before the LU makes it.
+    CHECK(capped.counters().ppe_cold_restarts == steps - 1);
+    CHECK(capped.counters().ppe_iterations == steps + capped.counters().ppe_cold_restarts);  // one per attempt
+    CHECK(free.counters().ppe_cold_restarts == 0);
     CHECK(dcap <= 1e-9);
     CHECK(free.counters().ppe_fallbacks == 0);
     CHECK(free.counters().ppe_iterations > steps);

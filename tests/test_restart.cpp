@@ -155,8 +155,8 @@ TEST_SUITE("restart") {
     REQUIRE(scale > 0.0);
     CHECK(diff <= 1e-9 * scale);
 
-    // The checkpoint keeps the count; files written before it (8 counters) or before ppe_breakdown_restarts (9)
-    // load with the missing counters 0.
+    // The checkpoint keeps the count; files written before it (8 counters), before ppe_breakdown_restarts (9) or
+    // before ppe_cold_restarts (10) load with the missing counters 0.
     io::save_simulation(tmp / "c.mpscp", a);
     simulation<fallback_defaults> b(capped, d.initial());
     io::load_simulation(tmp / "c.mpscp", b);
@@ -165,10 +165,14 @@ TEST_SUITE("restart") {
     io::checkpoint_sections all;
     io::load_checkpoint(tmp / "c.mpscp", st, all);
     std::vector<std::int64_t> v = all.get_int64s("semi_implicit.counters");
-    REQUIRE(v.size() == 10);
+    REQUIRE(v.size() == 11);
     CHECK(v[8] == 10);
     CHECK(v[9] == 0);  // no breakdown here
+    // Every capped solve started from the previous pressure (a warm start) except the first (from 0): the cold
+    // restart (one iteration from 0, solver_params::cold_restart) ran and failed at the other 9 before the LU.
+    CHECK(v[10] == 9);
     v[9] = 3;          // a count to read back
+    v[10] = 4;
     const auto write = [&](const std::string& name, std::size_t n) {  // the file with the first n counters
       io::checkpoint_sections old;
       old.add_doubles("semi_implicit.time", all.get_doubles("semi_implicit.time"));
@@ -178,10 +182,15 @@ TEST_SUITE("restart") {
       io::save_checkpoint(tmp / name, st, old);
       return tmp / name;
     };
+    simulation<fallback_defaults> c11(capped, d.initial());
+    io::load_simulation(write("11.mpscp", 11), c11);
+    CHECK(c11.counters().ppe_breakdown_restarts == 3);
+    CHECK(c11.counters().ppe_cold_restarts == 4);
     simulation<fallback_defaults> c10(capped, d.initial());
     io::load_simulation(write("10.mpscp", 10), c10);
     CHECK(c10.counters().ppe_fallbacks == 10);
     CHECK(c10.counters().ppe_breakdown_restarts == 3);
+    CHECK(c10.counters().ppe_cold_restarts == 0);
     simulation<fallback_defaults> c9(capped, d.initial());
     io::load_simulation(write("9.mpscp", 9), c9);
     CHECK(c9.counters().ppe_fallbacks == 10);
@@ -192,7 +201,7 @@ TEST_SUITE("restart") {
     CHECK(c.counters().ppe_iterations == a.counters().ppe_iterations);
     CHECK(c.counters().ppe_fallbacks == 0);
     simulation<fallback_defaults> e(capped, d.initial());
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 10"),
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 11"),
                          mpskit::error);
   }
 }

@@ -64,6 +64,7 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   long own_loop_checked = 0, own_loop_dirichlet = 0, own_loop_one_point = 0, own_loop_solves = 0;
   long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
+  long ppe_cold_restarts = 0;  ///< warm-started solves repeated from 0 after not converging (solver_params)
   long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   double left_domain_volume = 0.0;  ///< their ΣV (m²)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
@@ -315,6 +316,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.own_loop_solves = sim.counters().own_loop_solves;
   r.ppe_fallbacks = sim.counters().ppe_fallbacks;
   r.ppe_breakdown_restarts = sim.counters().ppe_breakdown_restarts;
+  r.ppe_cold_restarts = sim.counters().ppe_cold_restarts;
   r.shift_velocity_clipped = sim.counters().shift_velocity_clipped;
   return r;
 }

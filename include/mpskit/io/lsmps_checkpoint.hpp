@@ -5,8 +5,8 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×38, lsmps_counters' integer counters in the order of
-///                               detail::lsmps_counter_values (older files hold 24 to 37, the missing ones
+///   `lsmps.counters`            int64 ×39, lsmps_counters' integer counters in the order of
+///                               detail::lsmps_counter_values (older files hold 24 to 38, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume, left_domain_volume} (older files: the
 ///                               first two, the third read as 0)
@@ -50,7 +50,7 @@ inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.
 /// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
 /// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33, 2026-12-03) or
 /// collision_coincident and shift_coincident (34, 35, 2026-12-03) or left_domain (36, 2026-12-03) or
-/// active_set_released (37, 2026-12-05): still read, the missing counters 0.
+/// active_set_released (37, 2026-12-05) or ppe_cold_restarts (38, 2026-12-05): still read, the missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 

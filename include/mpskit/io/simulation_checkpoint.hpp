@@ -8,8 +8,9 @@
 ///   `semi_implicit.l0`         doubles {l0}                         spacing the run used (checked on load)
 ///   `semi_implicit.counters`   int64 {steps, ppe_iterations, ppe_iterations_max, pinned_components,
 ///                                     isolated, list_builds, reorders, negative_clamped, ppe_fallbacks,
-///                                     ppe_breakdown_restarts} (files before ppe_fallbacks, 2026-12-02, hold 8
-///                                     values, before ppe_breakdown_restarts, 2026-12-03, 9: still read, with 0)
+///                                     ppe_breakdown_restarts, ppe_cold_restarts} (files before ppe_fallbacks,
+///                                     2026-12-02, hold 8 values, before ppe_breakdown_restarts, 2026-12-03, 9,
+///                                     before ppe_cold_restarts, 2026-12-05, 10: still read, with 0)
 ///   `semi_implicit.time_step`  int64 {halvings, held, changes}
 ///
 /// Not saved: the neighbour list and the solver's factorisation. The scheme builds its list from the
@@ -83,7 +84,7 @@ void load_simulation(const std::filesystem::path& path, Sim& sim) {
     fail("load_simulation: '", file, "': written with l0 = ", l0, " m, the simulation has l0 = ", sim.params().l0, " m");
   const std::vector<std::int64_t> c = s.get_int64s("semi_implicit.counters");
   const std::vector<std::int64_t> ts = s.get_int64s("semi_implicit.time_step");
-  constexpr std::size_t count = scheme::semi_implicit_counter_fields.size(), count_min = 8;  // 8, 9: older files
+  constexpr std::size_t count = scheme::semi_implicit_counter_fields.size(), count_min = 8;  // 8 to 10: older files
   if (c.size() < count_min || c.size() > count)
     fail("load_simulation: '", file, "': section 'semi_implicit.counters' holds ", c.size(), " values, expected ",
          count, " (or ", count_min, " to ", count - 1, " from older files)");

@@ -40,6 +40,7 @@ struct solve_report {
   double residual = 0.0;                         ///< relative residual |A x − b| / |b| reached
   bool lagged_retry = false;  ///< a solve on lagged factors failed and was repeated with fresh ones (eigen_iterative)
   bool breakdown_restart = false;  ///< the iterate was not finite and the solve was restarted from 0 (eigen_iterative)
+  bool cold_restart = false;  ///< the warm-started solve did not converge and was repeated from 0 (eigen_iterative)
   bool fallback = false;      ///< the primary solver failed and the fallback solver made this solve (ppe::with_fallback)
 };
 

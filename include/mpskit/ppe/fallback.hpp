@@ -1,8 +1,9 @@
 #pragma once
 /// \file ppe/fallback.hpp
 /// \brief ppe::with_fallback<Primary, Fallback>: a LinearSolver that solves with Primary (an iterative solver)
-/// and, only when Primary fails (its preconditioner fails, it does not converge, or its iterate is not finite,
-/// e.g. a BiCGSTAB breakdown that its own restart from 0, solver_params::breakdown_restart, did not mend),
+/// and, only when Primary fails (its preconditioner fails, it does not converge — also after its restart from 0,
+/// solver_params::cold_restart — or its iterate is not finite, e.g. a BiCGSTAB breakdown that its own restart from
+/// 0, solver_params::breakdown_restart, did not mend),
 /// solves the same system again with Fallback (a direct solver: ppe::sparse_lu, ppe::umfpack). Counted:
 /// fallbacks() here, solve_report::fallback per solve (both steppers sum it in counters().ppe_fallbacks). Ours, not in the papers (docs/run.md, "A direct fallback").
 ///
@@ -51,7 +52,7 @@ class with_fallback {
 
   /// Solves A x = b from x with the primary; when it fails, with the fallback (factorised now). The report is
   /// the primary's when it succeeded, otherwise the fallback's with fallback = true, the iterations of both
-  /// and the primary's lagged_retry and breakdown_restart.
+  /// and the primary's lagged_retry, breakdown_restart and cold_restart.
   solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     solve_report r;
     if (primary_ok_) {
@@ -71,6 +72,7 @@ class with_fallback {
     f.iterations += r.iterations;
     f.lagged_retry = r.lagged_retry;
     f.breakdown_restart = r.breakdown_restart;
+    f.cold_restart = r.cold_restart;
     f.fallback = true;
     return f;
   }

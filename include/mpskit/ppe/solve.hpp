@@ -42,6 +42,7 @@ solve_report solve_checked(S& solver, const matrix& A, const Eigen::VectorXd& b,
   const solve_report rep = solver.solve(b, x);
   if (rep.info != Eigen::Success) {
     const std::string after = std::string(rep.breakdown_restart ? " (also after a restart from 0 following a breakdown)" : "") +
+                              (rep.cold_restart ? " (also after a restart from 0, solver_params::cold_restart)" : "") +
                               (rep.fallback ? " (and the fallback solver failed too)" : "");
     const Eigen::VectorXd res = A * x - b;
     // A breakdown leaves a non-finite iterate or residual: name the first non-finite row, not a "largest

@@ -418,6 +418,7 @@ struct lsmps_counters {
   long ppe_lagged_retries = 0;     ///< lagged-ILUT solves (solver_params::ilut_reuse) repeated with fresh factors
   long ppe_fallbacks = 0;          ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
   long ppe_breakdown_restarts = 0; ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
+  long ppe_cold_restarts = 0;      ///< warm-started solves repeated from 0 after not converging (solver_params::cold_restart)
   long pinned_components = 0;      ///< PPE parts with no Dirichlet row, pinned (summed over steps)
   long isolated = 0;               ///< isolated particle-steps
   long copies = 0;                 ///< imaginary copies made (summed over steps)
@@ -468,7 +469,7 @@ struct lsmps_counters {
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
 /// the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 38> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 39> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -481,7 +482,7 @@ inline constexpr std::array<long lsmps_counters::*, 38> lsmps_counter_fields{
     &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
     &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
     &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident,
-    &lsmps_counters::left_domain, &lsmps_counters::active_set_released};
+    &lsmps_counters::left_domain, &lsmps_counters::active_set_released, &lsmps_counters::ppe_cold_restarts};
 // A counter added to lsmps_counters without a place in the list above fails here.
 static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 3 * sizeof(double));
 
@@ -1738,6 +1739,7 @@ class lsmps_semi_implicit {
     c_.ppe_lagged_retries += last_solve_.lagged_retry;
     c_.ppe_fallbacks += last_solve_.fallback;
     c_.ppe_breakdown_restarts += last_solve_.breakdown_restart;
+    c_.ppe_cold_restarts += last_solve_.cold_restart;
     c_.ppe_iterations += last_solve_.iterations;
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     for (index_t r = 0; r < m; ++r) {
@@ -1912,6 +1914,7 @@ class lsmps_semi_implicit {
     c_.ppe_lagged_retries += adjoint.lagged_retry;
     c_.ppe_fallbacks += adjoint.fallback;
     c_.ppe_breakdown_restarts += adjoint.breakdown_restart;
+    c_.ppe_cold_restarts += adjoint.cold_restart;
     // 2.–3. Compatible right-hand side, then the pin.
     const auto& V = s_.template get<field::volume>();
     for (const ppe::floating_part& part : floating) {

@@ -131,16 +131,18 @@ struct semi_implicit_counters {
   long negative_clamped = 0;      ///< pressures clamped to zero (summed)
   long ppe_fallbacks = 0;         ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
+  long ppe_cold_restarts = 0;  ///< warm-started solves repeated from 0 after not converging (solver_params::cold_restart)
 };
 
 /// semi_implicit_counters in checkpoint order (io/simulation_checkpoint.hpp; a counter added later goes last, and the
 /// loader reads older files' shorter lists): the one list that saving and loading walk.
-inline constexpr std::array<long semi_implicit_counters::*, 10> semi_implicit_counter_fields{
+inline constexpr std::array<long semi_implicit_counters::*, 11> semi_implicit_counter_fields{
     &semi_implicit_counters::steps,         &semi_implicit_counters::ppe_iterations,
     &semi_implicit_counters::ppe_iterations_max, &semi_implicit_counters::pinned_components,
     &semi_implicit_counters::isolated,      &semi_implicit_counters::list_builds,
     &semi_implicit_counters::reorders,      &semi_implicit_counters::negative_clamped,
-    &semi_implicit_counters::ppe_fallbacks, &semi_implicit_counters::ppe_breakdown_restarts};
+    &semi_implicit_counters::ppe_fallbacks, &semi_implicit_counters::ppe_breakdown_restarts,
+    &semi_implicit_counters::ppe_cold_restarts};
 // A counter added to semi_implicit_counters without a place in the list above fails here.
 static_assert(sizeof(semi_implicit_counters) == semi_implicit_counter_fields.size() * sizeof(long));
 
@@ -556,6 +558,7 @@ class semi_implicit {
     c_.ppe_iterations_max = std::max(c_.ppe_iterations_max, last_solve_.iterations);
     c_.ppe_fallbacks += last_solve_.fallback;
     c_.ppe_breakdown_restarts += last_solve_.breakdown_restart;
+    c_.ppe_cold_restarts += last_solve_.cold_restart;
     long clamped = 0;
     for (index_t r = 0; r < m; ++r) {
       double v = sol[r];
