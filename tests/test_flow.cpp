@@ -488,13 +488,23 @@ TEST_SUITE("solver") {
     const auto [rf, xf] = with_lu(on);
     CHECK(rf.breakdown_restart);
     CHECK(!rf.fallback);
-    // Capped at one iteration the restart has none left: the failure goes to the fallback, the flag stays false.
+    // Capped at one iteration, which the broken attempt used: the restart is the solve from 0 with a fresh budget
+    // (since 2026-12-06; before, it had none left and the LU solved), and one iteration from 0 is exact.
     ppe::solver_params one = on;
     one.max_iterations = 1;
     const auto [r1, x1] = with_lu(one);
-    CHECK(r1.fallback);
-    CHECK(!r1.breakdown_restart);
+    CHECK(!r1.fallback);
+    CHECK(r1.breakdown_restart);
+    CHECK(r1.iterations == 2);
     CHECK(x1[0] == doctest::Approx(1.0).epsilon(1e-14));
+    CHECK(std::abs(x1[1]) <= 1e-14);
+    // The restart's iterate is bitwise the solve from 0's.
+    ppe::bicgstab_jacobi from0(one);
+    REQUIRE(from0.compute(A) == Eigen::Success);
+    Eigen::VectorXd xz0 = Eigen::VectorXd::Zero(2);
+    REQUIRE(from0.solve(b, xz0).info == Eigen::Success);
+    CHECK(x1[0] == xz0[0]);
+    CHECK(x1[1] == xz0[1]);
     // b = (1, −1) breaks down from 0 too (r0 = b, A b = (−1, −1) ⟂ b): from x0 = (−3, 1) (r0 = (2, −2)) the
     // restart fails as well and the error says both; from 0 there is no restart (it would repeat the solve).
     const Eigen::Vector2d b2(1.0, -1.0), x2(-3.0, 1.0);
@@ -510,6 +520,18 @@ TEST_SUITE("solver") {
     CHECK(message.find("broke down at step 4") != std::string::npos);
     CHECK(message.find("also after a restart from 0") != std::string::npos);
     CHECK(twice.breakdown_restarts() == 1);
+    // Through with_fallback the LU then solves it (b2 is solvable: x = (3, −1)), and the report keeps the flag.
+    {
+      ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu> fb(on);
+      REQUIRE(fb.compute(A) == Eigen::Success);
+      Eigen::VectorXd xf2 = x2;
+      const ppe::solve_report rf2 = fb.solve(b2, xf2);
+      CHECK(rf2.info == Eigen::Success);
+      CHECK(rf2.fallback);
+      CHECK(rf2.breakdown_restart);
+      CHECK(xf2[0] == doctest::Approx(3.0).epsilon(1e-14));
+      CHECK(xf2[1] == doctest::Approx(-1.0).epsilon(1e-14));
+    }
     ppe::bicgstab_jacobi cold(on);
     Eigen::VectorXd xz = Eigen::VectorXd::Zero(2);
     CHECK_THROWS_WITH_AS(ppe::solve_checked(cold, A, b2, xz, on, 5, 0.0, row), doctest::Contains("broke down at step 5"),

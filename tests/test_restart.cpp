@@ -203,5 +203,11 @@ TEST_SUITE("restart") {
     simulation<fallback_defaults> e(capped, d.initial());
     CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 11"),
                          mpskit::error);
+    // A file with more counters than this library knows (written by a later one) is refused too, not truncated.
+    v.push_back(5);
+    simulation<fallback_defaults> f(capped, d.initial());
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("12.mpscp", 12), f), doctest::Contains("holds 12 values, expected 11"),
+                         mpskit::error);
+    CHECK(f.counters().steps == 0);  // untouched
   }
 }

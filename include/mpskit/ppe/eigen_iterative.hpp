@@ -40,9 +40,10 @@ struct solver_params {
   /// unmatched unknowns. Off by default (ours; docs/lsmps_scheme.md deviation 7).
   bool ilut_reuse_across_changes = false;
   double ilut_reuse_unmatched = 0.1;  ///< largest fraction of unmatched unknowns for which the factors are kept
-  /// A solve whose iterate is not finite (a Krylov breakdown) is restarted once from x = 0 with the iterations
-  /// left, unless it started from 0; on lagged ILUT factors only the fresh-factor retry restarts (ours; docs/run.md,
-  /// "Krylov breakdowns"). Only solves that would otherwise fail (or, lagged, be retried) are affected.
+  /// A solve whose iterate is not finite (a Krylov breakdown) is restarted once from x = 0 with a fresh budget of
+  /// max_iterations (since 2026-12-06; before, the iterations left), unless it started from 0; on lagged ILUT
+  /// factors only the fresh-factor retry restarts (ours; docs/run.md, "Krylov breakdowns"). Only solves that
+  /// would otherwise fail (or, lagged, be retried) are affected.
   bool breakdown_restart = true;
   /// A warm-started solve that does not converge (Eigen::NoConvergence: the iteration cap reached, or a true
   /// residual above 10× the tolerance; not a breakdown, nor IDR(s)'s own breakdown exit) is repeated once from
@@ -263,23 +264,24 @@ class eigen_iterative {
     r.iterations = s_.iterations();
     r.residual = (*A_ * x - b).norm() / bn;
     // A Krylov breakdown (the iterate not finite: BiCGSTAB's α = ρ/(r̂₀·v), or β after ω = 0, divided by zero or
-    // so nearly that the iterate overflowed) is restarted once from x = 0 within the iteration cap, which changes
-    // the shadow residual r̂₀ = b − A x₀ the breakdown depends on (solver_params::breakdown_restart; ours,
-    // docs/run.md). A near-breakdown that leaves a finite iterate is not caught here (it is a non-convergence),
-    // nor are IDR(s)'s own breakdown exits (finite iterate, NumericalIssue). Measured: a 1.5 mm dam-break PPE
+    // so nearly that the iterate overflowed) is restarted once from x = 0, which changes the shadow residual
+    // r̂₀ = b − A x₀ the breakdown depends on (solver_params::breakdown_restart; ours, docs/run.md). The restart
+    // is the solve from 0 (a fresh budget of max_iterations, its residual replacement and classification), as
+    // the cold restart below is; since 2026-12-06 — before, it had the iterations left, so a late breakdown
+    // failed for want of iterations (a restart that converged within them computes the same iterate either
+    // way). A near-breakdown that leaves a finite iterate is not caught here (it is a non-convergence), nor
+    // are IDR(s)'s own breakdown exits (finite iterate, NumericalIssue). Measured: a 1.5 mm dam-break PPE
     // (8912 unknowns) broke down after 280 BiCGSTAB-Jacobi iterations from the warm start and converged in 250
     // from 0 (docs/lsmps_scheme.md, "The 1.5 mm breakdown").
     if (restart && p_.breakdown_restart && !from_zero && (!x.allFinite() || !std::isfinite(r.residual)) &&
-        b.allFinite() && r.iterations < p_.max_iterations) {
-      r.breakdown_restart = true;
+        b.allFinite()) {
       ++breakdowns_;
+      const long first = r.iterations;
       x.setZero();
-      s_.setMaxIterations(p_.max_iterations - r.iterations);
-      x = s_.solveWithGuess(b, x);
-      s_.setMaxIterations(p_.max_iterations);
-      r.info = s_.info();
-      r.iterations += s_.iterations();
-      r.residual = (*A_ * x - b).norm() / bn;
+      r = solve_once(b, x, false);  // from 0, as a solve from 0 would run (its residual replacement included)
+      r.iterations += first;
+      r.breakdown_restart = true;
+      return r;
     }
     // (A breakdown inside the residual replacement below is not restarted: it fails the solve.)
     // Solvers test their own residual estimates (IDR(s), GMRES and BiCGSTAB drift from the true one). When
@@ -303,8 +305,8 @@ class eigen_iterative {
     if (!x.allFinite() || !std::isfinite(r.residual)) r.info = Eigen::NumericalIssue;
     // A warm-started solve that did not converge is repeated once from x = 0 with a fresh iteration budget
     // (solver_params::cold_restart; ours, docs/run.md "Cold restarts"): BiCGSTAB from a warm start can stagnate
-    // where the same system converges from 0. A breakdown's restart already started from 0.
-    if (restart && p_.cold_restart && !from_zero && !r.breakdown_restart && r.info == Eigen::NoConvergence) {
+    // where the same system converges from 0. (A breakdown's restart, above, already ran from 0 and returned.)
+    if (restart && p_.cold_restart && !from_zero && r.info == Eigen::NoConvergence) {
       ++colds_;
       const long first = r.iterations;
       x.setZero();
