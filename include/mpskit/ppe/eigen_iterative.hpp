@@ -188,8 +188,9 @@ class eigen_iterative {
   }
   /// Solves A x = b starting from x; reports iterations and the true relative residual. After a lagged
   /// factorisation that fails, the solve is repeated once from the same start with fresh factors; the
-  /// iterations reported are then both attempts' (each within max_iterations; the fresh-factor attempt's include a
-  /// cold restart's, solver_params::cold_restart, so the sum can reach 3 × max_iterations).
+  /// iterations reported are then both attempts' (the fresh-factor attempt's include a restart's from 0 after a
+  /// breakdown or a non-convergence, solver_params::breakdown_restart and cold_restart, each with a fresh budget of
+  /// max_iterations, so the sum can reach 3 × max_iterations).
   solve_report solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     const Eigen::VectorXd x0 = lagged_ ? x : Eigen::VectorXd();
     // On lagged factors a breakdown goes to the fresh-factor retry (as before breakdown_restart existed), and
