@@ -583,6 +583,20 @@ TEST_SUITE("solver") {
     CHECK(r.iterations == rp.iterations + k0);
     CHECK(x == xz);  // the restart is the solve from 0
     CHECK(restarted.breakdown_restarts() == 1);
+    // Capped at k0 − 1 the restart does not converge either, and it is not restarted again (no cold restart after
+    // a breakdown restart: both would start from 0).
+    ppe::solver_params short_cap = sp;
+    short_cap.max_iterations = k0 - 1;
+    ppe::bicgstab_jacobi once(short_cap);
+    REQUIRE(once.compute(A) == Eigen::Success);
+    Eigen::VectorXd xs = x0;
+    const ppe::solve_report rs = once.solve(b, xs);
+    CHECK(rs.info == Eigen::NoConvergence);
+    CHECK(rs.breakdown_restart);
+    CHECK(!rs.cold_restart);
+    CHECK(rs.iterations == rp.iterations + k0 - 1);
+    CHECK(once.breakdown_restarts() == 1);
+    CHECK(once.cold_restarts() == 0);
   }
 
   TEST_CASE("solver: a warm-started solve that does not converge is repeated from 0 (cold_restart)") {
