@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -38,6 +39,21 @@ ppe::matrix convection_diffusion(int g) {
   ppe::matrix A(g * g, g * g);
   A.setFromTriplets(t.begin(), t.end());
   return A;
+}
+/// The restarts one solver made (ppe::detail::eigen_iterative's counters).
+struct restart_counts {
+  long breakdown = 0, cold = 0;
+};
+/// One BiCGSTAB-Jacobi solve of A x = b from x with params sp (a fresh solver): the report, the iterate and the
+/// solver's restart counters.
+std::tuple<ppe::solve_report, Eigen::VectorXd, restart_counts> run_bicgstab_jacobi(const ppe::solver_params& sp,
+                                                                                   const ppe::matrix& A,
+                                                                                   const Eigen::VectorXd& b,
+                                                                                   Eigen::VectorXd x) {
+  ppe::bicgstab_jacobi s(sp);
+  REQUIRE(s.compute(A) == Eigen::Success);
+  const ppe::solve_report r = s.solve(b, x);
+  return {r, std::move(x), restart_counts{s.breakdown_restarts(), s.cold_restarts()}};
 }
 /// A known solution u_k = sin(0.37 k) + 0.01 k (b = A u in the solver tests).
 Eigen::VectorXd known_solution(int n) {
@@ -553,10 +569,7 @@ TEST_SUITE("solver") {
     x0[1] = 1.0;
     REQUIRE((b - A * x0).tail(g * g).isZero(0.0));  // the premise: no residual outside the 2 × 2 block
     ppe::solver_params sp;  // the default
-    ppe::bicgstab_jacobi free(sp);
-    REQUIRE(free.compute(A) == Eigen::Success);
-    Eigen::VectorXd xz = Eigen::VectorXd::Zero(n);
-    const ppe::solve_report rz = free.solve(b, xz);
+    const auto [rz, xz, free] = run_bicgstab_jacobi(sp, A, b, Eigen::VectorXd::Zero(n));
     REQUIRE(rz.info == Eigen::Success);
     CHECK(!rz.breakdown_restart);
     const long k0 = rz.iterations;
@@ -567,36 +580,27 @@ TEST_SUITE("solver") {
     capped.max_iterations = k0;
     ppe::solver_params off = capped;
     off.breakdown_restart = false;
-    ppe::bicgstab_jacobi plain(off);
-    REQUIRE(plain.compute(A) == Eigen::Success);
-    Eigen::VectorXd xp = x0;
-    const ppe::solve_report rp = plain.solve(b, xp);
+    const auto [rp, xp, plain] = run_bicgstab_jacobi(off, A, b, x0);
     CHECK(rp.info == Eigen::NumericalIssue);  // the breakdown
     CHECK(rp.iterations >= 1);
-    ppe::bicgstab_jacobi restarted(capped);
-    REQUIRE(restarted.compute(A) == Eigen::Success);
-    Eigen::VectorXd x = x0;
-    const ppe::solve_report r = restarted.solve(b, x);
+    const auto [r, x, restarted] = run_bicgstab_jacobi(capped, A, b, x0);
     CHECK(r.info == Eigen::Success);
     CHECK(r.breakdown_restart);
     CHECK(!r.cold_restart);
     CHECK(r.iterations == rp.iterations + k0);
     CHECK(x == xz);  // the restart is the solve from 0
-    CHECK(restarted.breakdown_restarts() == 1);
+    CHECK(restarted.breakdown == 1);
     // Capped at k0 − 1 the restart does not converge either, and it is not restarted again (no cold restart after
     // a breakdown restart: both would start from 0).
     ppe::solver_params short_cap = sp;
     short_cap.max_iterations = k0 - 1;
-    ppe::bicgstab_jacobi once(short_cap);
-    REQUIRE(once.compute(A) == Eigen::Success);
-    Eigen::VectorXd xs = x0;
-    const ppe::solve_report rs = once.solve(b, xs);
+    const auto [rs, xs, once] = run_bicgstab_jacobi(short_cap, A, b, x0);
     CHECK(rs.info == Eigen::NoConvergence);
     CHECK(rs.breakdown_restart);
     CHECK(!rs.cold_restart);
     CHECK(rs.iterations == rp.iterations + k0 - 1);
-    CHECK(once.breakdown_restarts() == 1);
-    CHECK(once.cold_restarts() == 0);
+    CHECK(once.breakdown == 1);
+    CHECK(once.cold == 0);
   }
 
   TEST_CASE("solver: a warm-started solve that does not converge is repeated from 0 (cold_restart)") {
@@ -613,10 +617,7 @@ TEST_SUITE("solver") {
     const Eigen::VectorXd x0 = u + 1e6 * u.norm() / w.norm() * w;
     ppe::solver_params sp;  // the default
     REQUIRE(sp.cold_restart);
-    ppe::bicgstab_jacobi free(sp);
-    REQUIRE(free.compute(A) == Eigen::Success);
-    Eigen::VectorXd xz = Eigen::VectorXd::Zero(g * g);
-    const ppe::solve_report rz = free.solve(b, xz);
+    const auto [rz, xz, free] = run_bicgstab_jacobi(sp, A, b, Eigen::VectorXd::Zero(g * g));
     REQUIRE(rz.info == Eigen::Success);
     CHECK(!rz.cold_restart);  // from 0: nothing to restart
     const long k0 = rz.iterations;
@@ -625,24 +626,18 @@ TEST_SUITE("solver") {
     capped.max_iterations = k0;
     ppe::solver_params off = capped;
     off.cold_restart = false;
-    ppe::bicgstab_jacobi plain(off);
-    REQUIRE(plain.compute(A) == Eigen::Success);
-    Eigen::VectorXd xp = x0;
-    const ppe::solve_report rp = plain.solve(b, xp);
+    const auto [rp, xp, plain] = run_bicgstab_jacobi(off, A, b, x0);
     CHECK(rp.info == Eigen::NoConvergence);
     CHECK(!rp.cold_restart);
-    CHECK(plain.cold_restarts() == 0);
-    ppe::bicgstab_jacobi cold(capped);
-    REQUIRE(cold.compute(A) == Eigen::Success);
-    Eigen::VectorXd x = x0;
-    const ppe::solve_report r = cold.solve(b, x);
+    CHECK(plain.cold == 0);
+    const auto [r, x, cold] = run_bicgstab_jacobi(capped, A, b, x0);
     CHECK(r.info == Eigen::Success);
     CHECK(r.cold_restart);
     CHECK(!r.breakdown_restart);
     CHECK(r.iterations == rp.iterations + k0);  // the failed attempt's and the restart's
     CHECK(r.residual <= capped.tolerance);
     CHECK(x == xz);  // the restart is the solve from 0
-    CHECK(cold.cold_restarts() == 1);
+    CHECK(cold.cold == 1);
     // Through ppe::with_fallback (BiCGSTAB-Jacobi, then SparseLU): the restart succeeds first, the flag passes on.
     ppe::with_fallback<ppe::bicgstab_jacobi, ppe::sparse_lu> fb(capped);
     REQUIRE(fb.compute(A) == Eigen::Success);
