@@ -251,6 +251,15 @@ class eigen_iterative {
     return info;
   }
 
+  /// The solve from x = 0 that both restarts run (a fresh budget, its residual replacement and classification, no
+  /// further restart of either kind); r becomes its report with the earlier attempt's iterations added.
+  void again_from_zero(const Eigen::VectorXd& b, Eigen::VectorXd& x, solve_report& r) {
+    const long first = r.iterations;
+    x.setZero();
+    r = solve_once(b, x, false);
+    r.iterations += first;
+  }
+
   /// One solve from x; restart: a breakdown may be restarted from 0 (solver_params::breakdown_restart).
   solve_report solve_once(const Eigen::VectorXd& b, Eigen::VectorXd& x, bool restart) {
     solve_report r;
@@ -277,10 +286,7 @@ class eigen_iterative {
     if (restart && p_.breakdown_restart && !from_zero && (!x.allFinite() || !std::isfinite(r.residual)) &&
         b.allFinite()) {
       ++breakdowns_;
-      const long first = r.iterations;
-      x.setZero();
-      r = solve_once(b, x, false);  // from 0, as a solve from 0 would run (its residual replacement included)
-      r.iterations += first;
+      again_from_zero(b, x, r);
       r.breakdown_restart = true;
       return r;
     }
@@ -309,10 +315,7 @@ class eigen_iterative {
     // where the same system converges from 0. (A breakdown's restart, above, already ran from 0 and returned.)
     if (restart && p_.cold_restart && !from_zero && r.info == Eigen::NoConvergence) {
       ++colds_;
-      const long first = r.iterations;
-      x.setZero();
-      r = solve_once(b, x, false);  // from 0: no further restart of either kind
-      r.iterations += first;
+      again_from_zero(b, x, r);
       r.cold_restart = true;
     }
     return r;
