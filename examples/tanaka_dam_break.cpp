@@ -10,7 +10,7 @@
 //
 // Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm]
 //                         [--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]]
-//                         [--out DIR] [--data DIR]
+//                         [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--out DIR] [--data DIR]
 // The defaults (since 2026-12-03) are the main example's options, scheme::lsmps_impact_params<2>(): the wall variant
 // two_point_wall_only_active_set_own_loop_copies_conditioned_limited, the collision stage at alpha1 0.5 with
 // isolated particles colliding, isolated particles in the shifting penalty (all opt-in in the library), with which
@@ -59,8 +59,16 @@
 //            summary (docs/lsmps_scheme.md "The impact configuration")
 //   --trace  U (m/s): in out/trace.txt, the fastest particle and its neighbourhood (fluid and wall copies with
 //            their pressures, packing ratios and surface flags) at each of the first 20 steps in which some
-//            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail.
-// Exit status 0 when the run reached T_end, 1 when the scheme failed (the summary says where).
+//            fluid particle is faster than U (cases::trace_fast_particle): where a failing run starts to fail
+//            (written out after each traced step, so a run killed before its end keeps what it traced).
+//   --checkpoint FILE [--every S] [--stop-after S]: write the run to FILE (the particles, the scheme's state, the
+//            runner's front and probe samples and extremes, this program's output state) every S wall seconds and at
+//            its end; --stop-after S: stop after S wall seconds of this process, checkpoint written (2D only;
+//            cases::tanaka_pieces, docs/run.md "Checkpoint and restart")
+//   --resume FILE: continue such a run with the same case and scheme options and the same --out (both refused
+//            otherwise; --T may differ: a run can be extended); the ParaView series, the pictures, front.csv and
+//            probe.csv continue as if uninterrupted (the run is bitwise the uninterrupted one, label restart)
+// Exit status 0 when the run reached T_end or stopped at --stop-after, 1 when the scheme failed (the summary says where).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -81,6 +89,7 @@
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
+#include "mpskit/io/vtk_reader.hpp"
 
 namespace fs = std::filesystem;
 using namespace mpskit;
@@ -162,10 +171,12 @@ int main(int argc, char** argv) {
   bool slab_asked = false, slab_walls = false;
   bool trace = false, collide_isolated = defaults.collision.isolated, shift_isolated = defaults.shift_isolated_penalty;
   bool obstacle = false, collide_isolated_asked = false, fallback = false;
+  cases::tanaka_pieces pieces;
   std::string walls_name = cases::tanaka_impact_walls, data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
     std::fprintf(stderr, "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid mm] "
-                         "[--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]] [--out DIR] [--data DIR]\n",
+                         "[--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]] "
+                         "[--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--out DIR] [--data DIR]\n",
                  argv[0]);
     return 2;
   };
@@ -191,6 +202,10 @@ int main(int argc, char** argv) {
         else if (!std::strcmp(argv[a], "--lid") && has_value) lid_mm = number("tanaka_dam_break: --lid");
         else if (!std::strcmp(argv[a], "--slab") && has_value) slab = number("tanaka_dam_break: --slab"), slab_asked = true;
         else if (!std::strcmp(argv[a], "--trace") && has_value) trace = true, trace_speed = number("tanaka_dam_break: --trace");
+        else if (!std::strcmp(argv[a], "--checkpoint") && has_value) pieces.checkpoint = argv[++a];
+        else if (!std::strcmp(argv[a], "--resume") && has_value) pieces.resume = argv[++a];
+        else if (!std::strcmp(argv[a], "--every") && has_value) pieces.checkpoint_interval = number("tanaka_dam_break: --every");
+        else if (!std::strcmp(argv[a], "--stop-after") && has_value) pieces.stop_after = number("tanaka_dam_break: --stop-after");
         else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
         else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
         else return usage();
@@ -205,6 +220,7 @@ int main(int argc, char** argv) {
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail("tanaka_dam_break: --T ", T_end, ": must be > 0");
     if (trace && !(trace_speed >= 0.0 && std::isfinite(trace_speed)))
       fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
+    pieces.validate();  // --every and --stop-after need --checkpoint; both >= 0
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
     regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
     if (collide_isolated_asked && collision == 0.0)
@@ -220,8 +236,8 @@ int main(int argc, char** argv) {
     if (slab_asked) {  // the 3D slab: its own path (the probe, the trace and the pictures are 2D)
       if (!(slab >= 1.0 && slab <= 1000.0 && slab == std::floor(slab)))
         fail("tanaka_dam_break: --slab ", slab, ": the number of layers must be a whole number in [1, 1000]");
-      if (obstacle || trace || fallback)
-        fail("tanaka_dam_break: --slab takes neither --obstacle, --trace nor --fallback (2D only)");
+      if (obstacle || trace || fallback || !pieces.checkpoint.empty() || !pieces.resume.empty())
+        fail("tanaka_dam_break: --slab takes neither --obstacle, --trace, --fallback, --checkpoint nor --resume (2D only)");
     } else if (slab_walls) {
       fail("tanaka_dam_break: --slab-walls needs --slab N");
     }
@@ -246,8 +262,8 @@ int main(int argc, char** argv) {
     double next_vtk = 0.0, T_snap = 0.0;
     long last_it = 0;
     std::ofstream snap;
-    std::ofstream trace_out;
-    if (trace) trace_out.open(fs::path(out) / "trace.txt");
+    std::ofstream trace_out;  // appended to when resuming
+    if (trace) trace_out.open(fs::path(out) / "trace.txt", pieces.resume.empty() ? std::ios::trunc : std::ios::app);
     int traced = 0;
     const double rho_g_h = cfg.rho * cfg.g * cfg.column_height;
     const auto observe = [&](const auto& sim) {
@@ -257,7 +273,10 @@ int main(int argc, char** argv) {
                            static_cast<index_t>(std::count_if(st.flags().begin(), st.flags().begin() + st.n_real(),
                                                               [](flag::type f) { return (f & flag::isolated) != 0; })));
       last_it = c.ppe_iterations;
-      if (trace && traced < 20 && cases::trace_fast_particle(trace_out, sim, trace_speed, rho_g_h, db.t_star(sim.time()))) ++traced;
+      if (trace && traced < 20 && cases::trace_fast_particle(trace_out, sim, trace_speed, rho_g_h, db.t_star(sim.time()))) {
+        ++traced;
+        trace_out.flush();  // a run killed before its end keeps what it traced
+      }
       if (obstacle) {
         obstacle_t.push_back(sim.time());
         obstacle_p.push_back(cases::probe_pressure(sim, probe, cfg.L));
@@ -279,6 +298,53 @@ int main(int argc, char** argv) {
     p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
     p.collision.isolated = collide_isolated;
     p.shift_isolated_penalty = shift_isolated;
+    // Checkpoints carry this program's state beside the runner's: the options (a resume with others is refused),
+    // the output series, the summary's counters and the obstacle's probe.
+    char options_text[256];
+    std::snprintf(options_text, sizeof options_text, "walls %s, collision %.17g, collide_isolated %d, shift_isolated %d, fallback %d",
+                  walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback));
+    const std::string options = options_text;
+    pieces.save_extra = [&](io::checkpoint_sections& s) {
+      s.add_bytes("example.options", options);
+      s.add_int64s("example.counters", counters.values());
+      s.add_doubles("example.output", {next_vtk, T_snap, double(last_it), double(traced), double(vtk.files_written())});
+      std::vector<double> ob = obstacle_t;
+      ob.insert(ob.end(), obstacle_p.begin(), obstacle_p.end());
+      s.add_doubles("example.obstacle_probe", ob);
+    };
+    pieces.load_extra = [&](const io::checkpoint_sections& s, const cases::tanaka_dam_break_result& so_far) {
+      const std::string& file = pieces.resume;
+      if (s.get_bytes("example.options") != options)
+        fail("tanaka_dam_break: '", file, "' was written with ", s.get_bytes("example.options"), "; this run has ", options,
+             " (resume with the same options)");
+      counters.from_values(s.get_int64s("example.counters"));
+      const std::vector<double> o = s.get_doubles("example.output"), ob = s.get_doubles("example.obstacle_probe");
+      if (o.size() != 5 || ob.size() % 2 != 0)
+        fail("tanaka_dam_break: '", file, "': sections 'example.output' and 'example.obstacle_probe' hold ", o.size(),
+             " and ", ob.size(), " values (expected 5 and a multiple of 2)");
+      next_vtk = o[0];
+      T_snap = o[1];
+      last_it = static_cast<long>(o[2]);
+      traced = static_cast<int>(o[3]);
+      const auto files = static_cast<std::size_t>(o[4]);
+      const fs::path pvd = fs::path(out) / "tanaka_dam_break.pvd";
+      std::vector<io::pvd_entry> entries;
+      if (files > 0) {
+        if (!fs::exists(pvd))
+          fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, and '", pvd.string(),
+               "' does not exist (resume with the --out of the run that wrote it)");
+        entries = io::read_pvd(pvd);
+        if (entries.size() < files)
+          fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, '", pvd.string(), "' lists ",
+               entries.size(), " (resume with the --out of the run that wrote it)");
+        entries.resize(files);  // files the interrupted run wrote after the checkpoint are written again
+      }
+      vtk = io::vtk_series(fs::path(out) / "tanaka_dam_break", {}, std::move(entries));
+      obstacle_t.assign(ob.begin(), ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2));
+      obstacle_p.assign(ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2), ob.end());
+      std::printf("  resumed from '%s' at T = %.4f (step %ld, %.0f s of wall time before)\n", file.c_str(),
+                  so_far.resumed_at, long(counters.summary(0.0).steps), so_far.wall_seconds_before);
+    };
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
                 "walls '%s', collision alpha1 %g%s%s%s, to T = %g\n",
                 obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()), walls.name.c_str(),
@@ -286,10 +352,10 @@ int main(int argc, char** argv) {
                 shift_isolated ? ", isolated particles in the shifting penalty" : "",
                 fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : "", T_end);
     const cases::tanaka_dam_break_result r =
-        fallback ? cases::run_tanaka_dam_break<cases::tanaka_fallback_scene>(cfg, T_end, p, true, observe)
-                 : cases::run_tanaka_dam_break(cfg, T_end, p, true, observe);
+        fallback ? cases::run_tanaka_dam_break<cases::tanaka_fallback_scene>(cfg, T_end, p, true, observe, pieces)
+                 : cases::run_tanaka_dam_break(cfg, T_end, p, true, observe, pieces);
     progress.finish();
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double wall = r.wall_seconds;  // the earlier pieces' included
     const std::vector<double>& probe_t = obstacle ? obstacle_t : r.probe_t;
     const std::vector<double>& probe_p = obstacle ? obstacle_p : r.probe_p;
 
@@ -337,6 +403,10 @@ int main(int argc, char** argv) {
                 obstacle ? " with the obstacle" : "", walls.name.c_str());
     if (r.failed)
       std::printf("  FAILED at T = %.3f (t = %.4f s): %s\n", r.T_failed, r.T_failed / db.t_star(1.0), r.failure.c_str());
+    else if (r.stopped)
+      std::printf("  stopped after %g s of this process at T = %.4f (of %g), checkpoint written: continue with --resume %s "
+                  "(the numbers below are the run's so far)\n",
+                  pieces.stop_after, r.T_reached, T_end, pieces.checkpoint.c_str());
     else
       std::printf("  reached T = %g (t = %.4f s)\n", T_end, T_end / db.t_star(1.0));
     if (!obstacle)

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -1522,3 +1523,98 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.guarded == 0);
   }
 }
+
+TEST_SUITE("restart") {
+  TEST_CASE("restart: Tanaka's dam break in three pieces gives the uninterrupted run's numbers bitwise") {
+    // cases::run_tanaka_dam_break with the example's configuration (lsmps_impact_params) at L = 10 mm to T = 3.3,
+    // the far-wall impact included (probe wet at T ≈ 3.04): once straight, once in pieces — stopped after its first
+    // step (stop_after 1e-9 wall seconds), resumed to T = 2 (a T_end other than the first piece's, checkpoint
+    // written at the end), resumed from that file to T = 3.3. Every sample and extreme equals the straight run's
+    // bitwise: BiCGSTAB-Jacobi keeps no factorisation across steps (io/lsmps_checkpoint.hpp), and the runner's
+    // running measurements (front and probe samples, extremes, the next front sample's T) travel in the file.
+    mpskit::test::scratch tmp("mpskit_test_lsmps_flow", "tanaka_pieces");
+    cases::tanaka_dam_break_config c;
+    c.L = 0.01;
+    const scheme::lsmps_params<2> p = scheme::lsmps_impact_params<2>();
+    const auto straight = cases::run_tanaka_dam_break(c, 3.3, p);
+    cases::tanaka_pieces first;
+    first.checkpoint = (tmp / "db.mpscp").string();
+    first.stop_after = 1e-9;
+    // The caller's own section travels with the file (the example keeps its output state there).
+    first.save_extra = [](io::checkpoint_sections& s) { s.add_doubles("caller.state", {42.0}); };
+    const auto a = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, first);
+    CHECK(a.stopped);
+    CHECK(a.steps == 1);
+    cases::tanaka_pieces second;
+    second.resume = first.checkpoint;
+    second.checkpoint = (tmp / "db2.mpscp").string();
+    double extra = 0.0;
+    second.load_extra = [&](const io::checkpoint_sections& s, const cases::tanaka_dam_break_result& so_far) {
+      extra = s.get_doubles("caller.state").at(0);
+      CHECK(so_far.T.size() == 1);  // the first step's front sample, restored before the second step
+    };
+    const auto b = cases::run_tanaka_dam_break(c, 2.0, p, false, cases::no_tanaka_observer{}, second);
+    CHECK(extra == 42.0);
+    CHECK_FALSE(b.stopped);
+    CHECK(b.resumed_at == a.T_reached);
+    CHECK(b.T_reached >= 2.0);
+    cases::tanaka_pieces third;
+    third.resume = second.checkpoint;
+    const auto r = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, third);
+    CHECK(r.resumed_at == b.T_reached);
+    CHECK(r.wall_seconds >= r.wall_seconds_before);
+    const auto bits = [](const std::vector<double>& v) {
+      std::vector<std::uint64_t> out;
+      for (const double x : v) out.push_back(std::bit_cast<std::uint64_t>(x));
+      return out;
+    };
+    const auto same = [](double x, double y) { return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y); };
+    REQUIRE(straight.probe_t.size() == r.probe_t.size());
+    CHECK(bits(r.probe_t) == bits(straight.probe_t));
+    CHECK(bits(r.probe_p) == bits(straight.probe_p));  // NaN while dry: compared as bits
+    CHECK(bits(r.T) == bits(straight.T));
+    CHECK(bits(r.Z) == bits(straight.Z));
+    CHECK(bits(r.Z_body) == bits(straight.Z_body));
+    CHECK(same(r.p_min, straight.p_min));
+    CHECK(same(r.p_min_copies, straight.p_min_copies));
+    CHECK(same(r.u_max, straight.u_max));
+    CHECK(same(r.T_u_max, straight.T_u_max));
+    CHECK(same(r.min_pair_ratio, straight.min_pair_ratio));
+    CHECK(same(r.T_min_pair, straight.T_min_pair));
+    CHECK(same(r.min_pair_ratio_non_isolated, straight.min_pair_ratio_non_isolated));
+    CHECK(same(r.volume_change, straight.volume_change));
+    CHECK(r.steps == straight.steps);
+    CHECK(r.ppe_iterations == straight.ppe_iterations);
+    CHECK(r.collisions == straight.collisions);
+    CHECK(r.active_set_rows == straight.active_set_rows);
+    CHECK(r.shift_velocity_clipped == straight.shift_velocity_clipped);
+    CHECK(r.particles == straight.particles);
+    CHECK(r.particles_end == straight.particles_end);
+    // The run must have reached what it is compared on: the impact at the probe, within the 10 ms window.
+    const cases::impact_measures m = cases::far_wall_impact(r);
+    CHECK(std::isfinite(m.t_arrival));
+    CHECK(same(m.impulse, cases::far_wall_impact(straight).impulse));
+    CHECK(r.collisions > 0);
+    CHECK(r.active_set_rows > 0);
+
+    // Refused: another configuration's file (named field), a caller's section under the runner's prefix, and
+    // stop_after without a file.
+    auto other = c;
+    other.L = 0.0125;
+    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(other, 3.3, p, false, cases::no_tanaka_observer{}, third),
+                         doctest::Contains("was written with L = 0.01"), mpskit::error);
+    auto other_g = c;
+    other_g.g = 9.81;
+    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(other_g, 3.3, p, false, cases::no_tanaka_observer{}, third),
+                         doctest::Contains("was written with g = 9.8"), mpskit::error);
+    cases::tanaka_pieces reserved;
+    reserved.checkpoint = (tmp / "r.mpscp").string();
+    reserved.save_extra = [](io::checkpoint_sections& s) { s.add_doubles("tanaka_dam_break.mine", {1.0}); };
+    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 0.1, p, false, cases::no_tanaka_observer{}, reserved),
+                         doctest::Contains("is reserved"), mpskit::error);
+    cases::tanaka_pieces no_file;
+    no_file.stop_after = 10.0;
+    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 0.1, p, false, cases::no_tanaka_observer{}, no_file),
+                         doctest::Contains("need a checkpoint file"), mpskit::error);
+  }
+}  // TEST_SUITE

@@ -2,17 +2,23 @@
 // Runs Tanaka's dam break (cases/tanaka_dam_break.hpp, §5.6.1) with the LSMPS scheme: front samples every
 // 0.05 in T = t √(2g/h0), the pressure at the probe (195, 5) mm every step, the lowest fluid (and copy)
 // pressure, the closest fluid pair (every step), counters and wall time. Shared by the test label
-// dam_break_lsmps and the speed-against-error reporter (benchmarks/report_dam_break.cpp).
+// dam_break_lsmps and the speed-against-error reporter (benchmarks/report_dam_break.cpp). Long runs go in pieces
+// through a checkpoint (tanaka_pieces; label restart).
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break.hpp"
+#include "mpskit/io/lsmps_checkpoint.hpp"
 #include "mpskit/io/probes.hpp"
 #include "mpskit/scene.hpp"
 
@@ -71,7 +77,51 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   bool failed = false;          ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
   std::string failure;          ///< the error's text
+  /// Runs in pieces (tanaka_pieces): stopped at stop_after before T_end, checkpoint written (the numbers so far).
+  bool stopped = false;
+  double T_reached = 0.0;            ///< T at the end of this piece
+  double resumed_at = -1.0;          ///< T the run was resumed from (< 0: not resumed)
+  double wall_seconds_before = 0.0;  ///< wall time of the earlier pieces (s; included in wall_seconds)
 };
+
+/// Long runs in pieces (io/lsmps_checkpoint.hpp; as cases::multi_diameter_config's). With `checkpoint` set, the run
+/// (particles, the scheme's state and the runner's running measurements: front and probe samples, extremes, the
+/// wall time so far) is written there every `checkpoint_interval` wall seconds (> 0) and when the run reaches T_end;
+/// `stop_after` > 0 ends the run after that many wall seconds of this process (at least one step), checkpoint
+/// written, result partial (`stopped`). `resume` names such a file to continue from: the case configuration must be
+/// the file's (every field of tanaka_dam_break_config, compared bitwise; refused otherwise), T_end may differ (a run
+/// can be extended), the scheme options are the caller's to keep the same. A run that fails writes no checkpoint (the
+/// last one written stays). Resumed with the same options, the run is bitwise the uninterrupted one (label restart)
+/// when the solver keeps no factorisation across steps (io/lsmps_checkpoint.hpp; BiCGSTAB-Jacobi, the default).
+struct tanaka_pieces {
+  std::string checkpoint, resume;
+  double checkpoint_interval = 0.0, stop_after = 0.0;
+  /// The caller's own sections (e.g. an example's output state), added to every checkpoint written; names must not
+  /// start with "lsmps." or "tanaka_dam_break.".
+  std::function<void(io::checkpoint_sections&)> save_extra;
+  /// Called once after a resume, before the first step, with every section of the file and the result so far.
+  std::function<void(const io::checkpoint_sections&, const tanaka_dam_break_result&)> load_extra;
+  void validate() const {
+    if (checkpoint.empty() && (checkpoint_interval != 0.0 || stop_after != 0.0))
+      fail("tanaka_pieces: checkpoint_interval and stop_after need a checkpoint file");
+    if (!(checkpoint_interval >= 0.0 && checkpoint_interval < HUGE_VAL) || !(stop_after >= 0.0 && stop_after < HUGE_VAL))
+      fail("tanaka_pieces: checkpoint_interval (", checkpoint_interval, " s) and stop_after (", stop_after,
+           " s) must be finite and >= 0");
+  }
+};
+
+namespace detail {
+/// tanaka_dam_break_config's fields in a checkpoint (section "tanaka_dam_break.config"), with their names for the
+/// refusal of another configuration.
+inline std::vector<double> tanaka_config_values(const tanaka_dam_break_config& c) {
+  return {c.L, c.vessel_left, c.vessel_right, c.vessel_height, c.closed_top ? 1.0 : 0.0, c.remove_outside ? 1.0 : 0.0,
+          c.column_width, c.column_height, c.rho, c.mu, c.g, c.obstacle_width, c.obstacle_height, c.obstacle_centre,
+          c.max_speed_factor};
+}
+inline constexpr std::array<const char*, 15> tanaka_config_names{
+    "L", "vessel_left", "vessel_right", "vessel_height", "closed_top", "remove_outside", "column_width", "column_height",
+    "rho", "mu", "g", "obstacle_width", "obstacle_height", "obstacle_centre", "max_speed_factor"};
+}  // namespace detail
 
 /// Pressure at q from the real, non-isolated fluid particles within re = R_e L (L the case's spacing; R_e of the
 /// operator, 3.1): LSMPS type B of first order (io::lsmps_b1_interpolation, exact for linear fields). NaN
@@ -241,11 +291,13 @@ inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsm
 /// (set_tanaka_case_params). With
 /// catch_failure an mpskit::error ends the run and is recorded (the reporter's failed configurations);
 /// otherwise it propagates. `observe(sim)` is called after every step
-/// (output, progress).
+/// (output, progress). `pieces`: checkpoints, stopping and resuming (tanaka_pieces; refused before any step when
+/// malformed, or when the file to resume is another configuration's).
 template <class Scene = lsmps_defaults<2>, class Observer = no_tanaka_observer>
 tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, double T_end,
                                              scheme::lsmps_params<2> p = {}, bool catch_failure = false,
-                                             Observer&& observe = {}) {
+                                             Observer&& observe = {}, const tanaka_pieces& pieces = {}) {
+  pieces.validate();
   const auto db = make_tanaka_dam_break(c);
   set_tanaka_case_params(c, p);
   simulation<Scene> sim(p, tanaka_initial_state(c, db), &db.walls);
@@ -254,8 +306,72 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.particles = db.size();
   double next = 0.0;
   const auto volume = [&]() { return sim.state().template get<field::volume>().head(sim.state().n_real()).sum(); };
-  const double V0 = volume();
+  double V0 = volume();
+  // The running measurements (sections "tanaka_dam_break.*"; the samples' vectors whole: at 1 mm ≈ 30 000 steps).
+  const auto measures = [&](double wall_total) {
+    return std::vector<double>{V0, next, r.p_min, r.p_min_copies, r.u_max, r.T_u_max, r.min_pair_ratio, r.T_min_pair,
+                               r.min_pair_ratio_non_isolated, static_cast<double>(r.particles), wall_total};
+  };
+  if (!pieces.resume.empty()) {
+    const std::string& file = pieces.resume;
+    io::checkpoint_sections sec;
+    io::load_simulation(file, sim, &sec);
+    const std::vector<double> cv = sec.get_doubles("tanaka_dam_break.config"), want = detail::tanaka_config_values(c);
+    if (cv.size() != want.size())
+      fail("run_tanaka_dam_break: '", file, "': section 'tanaka_dam_break.config' holds ", cv.size(), " values, expected ",
+           want.size());
+    for (std::size_t k = 0; k < want.size(); ++k)
+      if (std::bit_cast<std::uint64_t>(cv[k]) != std::bit_cast<std::uint64_t>(want[k]))
+        fail("run_tanaka_dam_break: '", file, "' was written with ", detail::tanaka_config_names[k], " = ", cv[k],
+             "; this run has ", want[k], " (resume with the file's configuration)");
+    const std::vector<double> m = sec.get_doubles("tanaka_dam_break.measures");
+    const std::vector<double> front = sec.get_doubles("tanaka_dam_break.front");
+    const std::vector<double> probe = sec.get_doubles("tanaka_dam_break.probe");
+    if (m.size() != measures(0.0).size() || front.size() % 3 != 0 || probe.size() % 2 != 0)
+      fail("run_tanaka_dam_break: '", file, "': sections 'tanaka_dam_break.measures', '.front', '.probe' hold ", m.size(),
+           ", ", front.size(), ", ", probe.size(), " values (expected ", measures(0.0).size(),
+           ", a multiple of 3, a multiple of 2)");
+    std::size_t k = 0;
+    V0 = m[k++];
+    next = m[k++];
+    r.p_min = m[k++];
+    r.p_min_copies = m[k++];
+    r.u_max = m[k++];
+    r.T_u_max = m[k++];
+    r.min_pair_ratio = m[k++];
+    r.T_min_pair = m[k++];
+    r.min_pair_ratio_non_isolated = m[k++];
+    r.particles = static_cast<index_t>(m[k++]);
+    r.wall_seconds_before = m[k++];
+    const std::size_t nf = front.size() / 3, np = probe.size() / 2;
+    r.T.assign(front.begin(), front.begin() + static_cast<std::ptrdiff_t>(nf));
+    r.Z.assign(front.begin() + static_cast<std::ptrdiff_t>(nf), front.begin() + static_cast<std::ptrdiff_t>(2 * nf));
+    r.Z_body.assign(front.begin() + static_cast<std::ptrdiff_t>(2 * nf), front.end());
+    r.probe_t.assign(probe.begin(), probe.begin() + static_cast<std::ptrdiff_t>(np));
+    r.probe_p.assign(probe.begin() + static_cast<std::ptrdiff_t>(np), probe.end());
+    r.resumed_at = db.t_star(sim.time());
+    if (pieces.load_extra) pieces.load_extra(sec, r);
+  }
   const auto t0 = std::chrono::steady_clock::now();
+  const auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  double last_save = 0.0;
+  const auto save = [&] {
+    io::checkpoint_sections sec;
+    if (pieces.save_extra) pieces.save_extra(sec);
+    for (const std::string& n : sec.names())
+      if (n.rfind("tanaka_dam_break.", 0) == 0)
+        fail("run_tanaka_dam_break: the caller's section name '", n, "' is reserved");
+    sec.add_doubles("tanaka_dam_break.config", detail::tanaka_config_values(c));
+    sec.add_doubles("tanaka_dam_break.measures", measures(r.wall_seconds_before + wall()));
+    std::vector<double> front = r.T, probe = r.probe_t;
+    front.insert(front.end(), r.Z.begin(), r.Z.end());
+    front.insert(front.end(), r.Z_body.begin(), r.Z_body.end());
+    probe.insert(probe.end(), r.probe_p.begin(), r.probe_p.end());
+    sec.add_doubles("tanaka_dam_break.front", front);
+    sec.add_doubles("tanaka_dam_break.probe", probe);
+    io::save_simulation(pieces.checkpoint, sim, std::move(sec));
+    last_save = wall();
+  };
   try {
     while (db.t_star(sim.time()) < T_end) {
       sim.step();
@@ -278,27 +394,37 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       r.probe_t.push_back(sim.time());
       r.probe_p.push_back(probe_pressure(sim, db.probe(), c.L));
       const double T = db.t_star(sim.time());
-      if (T < next) continue;
-      next += 0.05;
-      const auto& fl = sim.state().flags();
-      // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine one.
-      const Eigen::VectorXd d = sim.state().template get<field::volume>().head(n).cwiseSqrt();
-      const auto counted = [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; };
-      const double Z = db.front_star(sim.state().x(), d, n, counted);
-      const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);  // may throw: push after it
-      const double Z_body =
-          db.front_star(sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; });
-      r.T.push_back(T);
-      r.Z.push_back(Z);
-      r.Z_body.push_back(Z_body);
+      if (T >= next) {
+        next += 0.05;
+        const auto& fl = sim.state().flags();
+        // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine one.
+        const Eigen::VectorXd d = sim.state().template get<field::volume>().head(n).cwiseSqrt();
+        const auto counted = [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; };
+        const double Z = db.front_star(sim.state().x(), d, n, counted);
+        const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);  // may throw: push after it
+        const double Z_body =
+            db.front_star(sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; });
+        r.T.push_back(T);
+        r.Z.push_back(Z);
+        r.Z_body.push_back(Z_body);
+      }
+      if (pieces.checkpoint.empty()) continue;  // after the step's measurements: checkpoint, and stop when asked
+      if (pieces.checkpoint_interval > 0.0 && wall() - last_save >= pieces.checkpoint_interval) save();
+      if (pieces.stop_after > 0.0 && wall() >= pieces.stop_after && T < T_end) {
+        save();
+        r.stopped = true;
+        break;
+      }
     }
+    if (!pieces.checkpoint.empty() && !r.stopped) save();
   } catch (const mpskit::error& e) {
     if (!catch_failure) throw;
     r.failed = true;
     r.T_failed = db.t_star(sim.time());
     r.failure = e.what();
   }
-  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.T_reached = db.t_star(sim.time());
+  r.wall_seconds = r.wall_seconds_before + wall();
   r.read_counts(sim.counters());
   r.particles_end = sim.state().n_real();
   r.L_min = std::sqrt(sim.state().template get<field::volume>().head(r.particles_end).minCoeff());
