@@ -219,7 +219,7 @@ int run(int argc, char** argv) {
           std::fprintf(stderr, "channel --multi: %s needs a file name\n", argv[a]);
           return 2;
         }
-        (argv[a][2] == 'c' ? mc.checkpoint : mc.resume) = argv[a + 1];
+        (argv[a][2] == 'c' ? mc.pieces.checkpoint : mc.pieces.resume) = argv[a + 1];
         ++a;
       } else if (!std::strcmp(argv[a], "--every") || !std::strcmp(argv[a], "--stop-after")) {
         if (a + 1 >= argc) {
@@ -227,7 +227,7 @@ int run(int argc, char** argv) {
           return 2;
         }
         const bool every = argv[a][2] == 'e';
-        if (!number(argv[a], argv[a + 1], every ? mc.checkpoint_interval : mc.stop_after)) return 2;
+        if (!number(argv[a], argv[a + 1], every ? mc.pieces.checkpoint_interval : mc.pieces.stop_after)) return 2;
         ++a;
       } else if (!std::strcmp(argv[a], "--ilut-across")) {  // keep ILUT factors across changes of the unknowns
         mc.params.solver.ilut_reuse_across_changes = true;
@@ -277,10 +277,11 @@ int run(int argc, char** argv) {
                 mc.params.thin_walls ? ", thin-wall visibility test on" : "",
                 static_cast<long long>(r.particles), r.steps, r.wall_seconds,
                 static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), mc.t_end);
-    if (r.resumed_at >= 0.0) std::printf("  resumed from '%s' at t = %.6f s\n", mc.resume.c_str(), r.resumed_at);
+    if (r.resumed_at >= 0.0) std::printf("  resumed from '%s' at t = %.6f s\n", mc.pieces.resume.c_str(), r.resumed_at);
     if (!r.finished) {
-      std::printf("  stopped after %.0f s of this process at t = %.6f s (of %.2f s); continue with --resume %s\n",
-                  mc.stop_after, r.t_reached, mc.t_end, mc.checkpoint.c_str());
+      std::printf("  stopped after %g s of this process at t = %.6f s (of %.2f s); continue with --resume %s "
+                  "(and --checkpoint %s to go on writing it)\n",
+                  mc.pieces.stop_after, r.t_reached, mc.t_end, mc.pieces.checkpoint.c_str(), mc.pieces.checkpoint.c_str());
       std::printf("  so far: inflow %ld, outflow %ld, p in [%.0f, %.0f] Pa, max |u| %.3f m/s, guarded %ld, particles %lld, "
                   "splits %ld, merges %ld\n",
                   r.inflow, r.outflow, r.p_min, r.p_max, r.u_max, r.guarded, static_cast<long long>(r.particles_end),

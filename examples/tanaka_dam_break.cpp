@@ -119,7 +119,7 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
                      sim.state().n_real(), wall});
     if (T + 1e-9 >= next_vtk || T >= T_end) {
       vtk.write(sim.state(), sim.time(), sim.counters().steps);
-      next_vtk += 0.25;
+      if (T + 1e-9 >= next_vtk) next_vtk += 0.25;  // not for the last step's frame: an extended run keeps the grid
     }
   };
   std::printf("mpskit: Tanaka's dam break as a 3D slab (%d layers, B = %g mm, %s) with the LSMPS scheme, "
@@ -220,7 +220,7 @@ int main(int argc, char** argv) {
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail("tanaka_dam_break: --T ", T_end, ": must be > 0");
     if (trace && !(trace_speed >= 0.0 && std::isfinite(trace_speed)))
       fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
-    pieces.validate();  // --every and --stop-after need --checkpoint; both >= 0
+    pieces.validate("tanaka_dam_break");  // --every and --stop-after need --checkpoint; both finite, >= 0
     const cases::tanaka_wall_variant& walls = cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
     regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
     if (collide_isolated_asked && collision == 0.0)
@@ -259,11 +259,12 @@ int main(int argc, char** argv) {
     io::run_counters counters;
     std::vector<double> obstacle_t, obstacle_p;  // the obstacle's probe (the runner samples (195, 5) mm itself)
     const auto t0 = std::chrono::steady_clock::now();
-    double next_vtk = 0.0, T_snap = 0.0;
+    double next_vtk = 0.0, T_snap = 0.0, wall_before = 0.0;  // wall_before: earlier pieces' (--resume)
     long last_it = 0;
     std::ofstream snap;
     std::ofstream trace_out;  // appended to when resuming
-    if (trace) trace_out.open(fs::path(out) / "trace.txt", pieces.resume.empty() ? std::ios::trunc : std::ios::app);
+    const fs::path trace_path = fs::path(out) / "trace.txt";
+    if (trace) trace_out.open(trace_path, pieces.resume.empty() ? std::ios::trunc : std::ios::app);
     int traced = 0;
     const double rho_g_h = cfg.rho * cfg.g * cfg.column_height;
     const auto observe = [&](const auto& sim) {
@@ -282,10 +283,11 @@ int main(int argc, char** argv) {
         obstacle_p.push_back(cases::probe_pressure(sim, probe, cfg.L));
       }
       const double T = db.t_star(sim.time()), wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      progress.update({sim.time(), T_end / db.t_star(1.0), c.steps, sim.dt(), sim.last_solve().iterations, st.n_real(), wall});
+      progress.update({sim.time(), T_end / db.t_star(1.0), c.steps, sim.dt(), sim.last_solve().iterations, st.n_real(),
+                       wall_before + wall});
       if (T + 1e-9 >= next_vtk || T >= T_end) {  // every 0.25 in T and the last step
         vtk.write(st, sim.time(), c.steps);
-        next_vtk += 0.25;
+        if (T + 1e-9 >= next_vtk) next_vtk += 0.25;  // not for the last step's frame: a resumed, extended run keeps the grid
         snap.open(fs::path(out) / "particles.dat", std::ios::trunc);  // the latest written state, for the picture
         T_snap = T;
         for (index_t i = 0; i < st.n_real(); ++i)
@@ -299,7 +301,10 @@ int main(int argc, char** argv) {
     p.collision.isolated = collide_isolated;
     p.shift_isolated_penalty = shift_isolated;
     // Checkpoints carry this program's state beside the runner's: the options (a resume with others is refused),
-    // the output series, the summary's counters and the obstacle's probe.
+    // the output series (its length and last time: another --out is refused), the summary's counters, the obstacle's
+    // probe and the trace file's length (what a killed run traced after the checkpoint is cut off and traced again).
+    // particles.dat may hold a later state than the checkpoint's until the next frame rewrites it (at the latest the
+    // run's last step, from which the picture is drawn).
     char options_text[256];
     std::snprintf(options_text, sizeof options_text, "walls %s, collision %.17g, collide_isolated %d, shift_isolated %d, fallback %d",
                   walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback));
@@ -307,7 +312,10 @@ int main(int argc, char** argv) {
     pieces.save_extra = [&](io::checkpoint_sections& s) {
       s.add_bytes("example.options", options);
       s.add_int64s("example.counters", counters.values());
-      s.add_doubles("example.output", {next_vtk, T_snap, double(last_it), double(traced), double(vtk.files_written())});
+      const auto& written = vtk.pvd().entries();
+      s.add_doubles("example.output", {next_vtk, T_snap, double(last_it), double(traced), double(written.size()),
+                                       written.empty() ? 0.0 : written.back().time,
+                                       trace ? double(fs::file_size(trace_path)) : -1.0});  // flushed per trace
       std::vector<double> ob = obstacle_t;
       ob.insert(ob.end(), obstacle_p.begin(), obstacle_p.end());
       s.add_doubles("example.obstacle_probe", ob);
@@ -319,14 +327,15 @@ int main(int argc, char** argv) {
              " (resume with the same options)");
       counters.from_values(s.get_int64s("example.counters"));
       const std::vector<double> o = s.get_doubles("example.output"), ob = s.get_doubles("example.obstacle_probe");
-      if (o.size() != 5 || ob.size() % 2 != 0)
+      if (o.size() != 7 || ob.size() % 2 != 0)
         fail("tanaka_dam_break: '", file, "': sections 'example.output' and 'example.obstacle_probe' hold ", o.size(),
-             " and ", ob.size(), " values (expected 5 and a multiple of 2)");
+             " and ", ob.size(), " values (expected 7 and a multiple of 2)");
       next_vtk = o[0];
       T_snap = o[1];
       last_it = static_cast<long>(o[2]);
       traced = static_cast<int>(o[3]);
       const auto files = static_cast<std::size_t>(o[4]);
+      wall_before = so_far.wall_seconds_before;
       const fs::path pvd = fs::path(out) / "tanaka_dam_break.pvd";
       std::vector<io::pvd_entry> entries;
       if (files > 0) {
@@ -334,12 +343,20 @@ int main(int argc, char** argv) {
           fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, and '", pvd.string(),
                "' does not exist (resume with the --out of the run that wrote it)");
         entries = io::read_pvd(pvd);
-        if (entries.size() < files)
-          fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, '", pvd.string(), "' lists ",
-               entries.size(), " (resume with the --out of the run that wrote it)");
+        if (entries.size() < files || entries[files - 1].time != o[5])
+          fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, the last at t = ", o[5],
+               " s; '", pvd.string(), "' lists ", entries.size(),
+               entries.size() < files ? "" : mpskit::detail::concat(", its file ", files, " at t = ", entries[files - 1].time, " s"),
+               " (resume with the --out of the run that wrote it)");
         entries.resize(files);  // files the interrupted run wrote after the checkpoint are written again
       }
       vtk = io::vtk_series(fs::path(out) / "tanaka_dam_break", {}, std::move(entries));
+      if (trace) {  // the trace file as it was at the checkpoint (not traced then: from the start)
+        trace_out.close();
+        const auto bytes = static_cast<std::uintmax_t>(std::max(0.0, o[6]));
+        if (fs::exists(trace_path) && fs::file_size(trace_path) > bytes) fs::resize_file(trace_path, bytes);
+        trace_out.open(trace_path, std::ios::app);
+      }
       obstacle_t.assign(ob.begin(), ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2));
       obstacle_p.assign(ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2), ob.end());
       std::printf("  resumed from '%s' at T = %.4f (step %ld, %.0f s of wall time before)\n", file.c_str(),
@@ -405,8 +422,8 @@ int main(int argc, char** argv) {
       std::printf("  FAILED at T = %.3f (t = %.4f s): %s\n", r.T_failed, r.T_failed / db.t_star(1.0), r.failure.c_str());
     else if (r.stopped)
       std::printf("  stopped after %g s of this process at T = %.4f (of %g), checkpoint written: continue with --resume %s "
-                  "(the numbers below are the run's so far)\n",
-                  pieces.stop_after, r.T_reached, T_end, pieces.checkpoint.c_str());
+                  "(and --checkpoint %s to go on writing it; the numbers below are the run's so far)\n",
+                  pieces.stop_after, r.T_reached, T_end, pieces.checkpoint.c_str(), pieces.checkpoint.c_str());
     else
       std::printf("  reached T = %g (t = %.4f s)\n", T_end, T_end / db.t_star(1.0));
     if (!obstacle)

@@ -940,14 +940,14 @@ TEST_SUITE("restart") {
     c.window = 0.01;
     const auto straight = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(c);
     auto first = c;
-    first.checkpoint = (tmp / "case.mpscp").string();
-    first.stop_after = 1e-9;
+    first.pieces.checkpoint = (tmp / "case.mpscp").string();
+    first.pieces.stop_after = 1e-9;
     const auto part = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(first);
     CHECK_FALSE(part.finished);
     CHECK(part.steps == 1);
     CHECK(std::isnan(part.balance));
     auto second = c;
-    second.resume = first.checkpoint;
+    second.pieces.resume = first.pieces.checkpoint;
     const auto r = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(second);
     CHECK(r.finished);
     CHECK(r.resumed_at == part.t_reached);

@@ -1548,6 +1548,7 @@ TEST_SUITE("restart") {
     cases::tanaka_pieces second;
     second.resume = first.checkpoint;
     second.checkpoint = (tmp / "db2.mpscp").string();
+    second.checkpoint_interval = 1e-9;  // written after every step too: writing must not change the run
     double extra = 0.0;
     second.load_extra = [&](const io::checkpoint_sections& s, const cases::tanaka_dam_break_result& so_far) {
       extra = s.get_doubles("caller.state").at(0);
@@ -1562,7 +1563,8 @@ TEST_SUITE("restart") {
     third.resume = second.checkpoint;
     const auto r = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, third);
     CHECK(r.resumed_at == b.T_reached);
-    CHECK(r.wall_seconds >= r.wall_seconds_before);
+    CHECK(r.wall_seconds_before > b.wall_seconds_before);  // the earlier pieces' wall time travels in the file
+    CHECK(b.wall_seconds_before > 0.0);
     const auto bits = [](const std::vector<double>& v) {
       std::vector<std::uint64_t> out;
       for (const double x : v) out.push_back(std::bit_cast<std::uint64_t>(x));
@@ -1616,5 +1618,26 @@ TEST_SUITE("restart") {
     no_file.stop_after = 10.0;
     CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 0.1, p, false, cases::no_tanaka_observer{}, no_file),
                          doctest::Contains("need a checkpoint file"), mpskit::error);
+    // A file that cannot be written is refused before the first step, with catch_failure too (not a scheme failure).
+    cases::tanaka_pieces unwritable;
+    unwritable.checkpoint = (tmp / "no_such_dir" / "x.mpscp").string();
+    CHECK_THROWS_AS(cases::run_tanaka_dam_break(c, 0.1, p, true, cases::no_tanaka_observer{}, unwritable), mpskit::error);
+
+    // A run killed before its first interval leaves the checkpoint written before the first step; resumed from it,
+    // the run is the straight one.
+    cases::tanaka_pieces killed;
+    killed.checkpoint = (tmp / "db0.mpscp").string();
+    killed.checkpoint_interval = 1e6;
+    CHECK_THROWS_WITH_AS(
+        cases::run_tanaka_dam_break(c, 3.3, p, false, [](const auto&) { fail("killed"); }, killed),
+        doctest::Contains("killed"), mpskit::error);
+    cases::tanaka_pieces from0;
+    from0.resume = killed.checkpoint;
+    const auto r0 = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, from0);
+    CHECK(r0.resumed_at == 0.0);
+    CHECK(bits(r0.probe_p) == bits(straight.probe_p));
+    CHECK(bits(r0.Z) == bits(straight.Z));
+    CHECK(same(r0.u_max, straight.u_max));
+    CHECK(r0.steps == straight.steps);
   }
 }  // TEST_SUITE

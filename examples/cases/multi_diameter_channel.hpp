@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cases/run_measures.hpp"
+#include "cases/run_pieces.hpp"
 #include "mpskit/boundary/pressure.hpp"
 #include "mpskit/io/lsmps_checkpoint.hpp"
 #include "mpskit/io/progress.hpp"
@@ -57,13 +58,10 @@ struct multi_diameter_config {
   bool graded_start = false;
   /// > 0: a progress row (io::progress_sink) on stderr at most every that many wall seconds (long runs).
   double progress_interval = 0.0;
-  /// Long runs in pieces (io/lsmps_checkpoint.hpp): with `checkpoint` set, the run is written there (particles,
-  /// the scheme's state and the running measurements below) every `checkpoint_interval` wall seconds (> 0) and
-  /// when it stops; `resume` names such a file to continue from (the same config: L, t_end and window are
-  /// checked, the rest is the caller's to keep). `stop_after` > 0 ends the run after that many wall seconds of
-  /// this process, checkpoint written, result partial (`finished` false).
-  std::string checkpoint, resume;
-  double checkpoint_interval = 0.0, stop_after = 0.0;
+  /// Long runs in pieces (cases/run_pieces.hpp): the particles, the scheme's state and the running measurements
+  /// below go to the checkpoint; a resumed file must have this config's L, t_end and window (checked), the rest is
+  /// the caller's to keep. Stopped early: `finished` false, the result partial.
+  run_pieces pieces;
   /// The pressure boundary's numbers: Table 1 except α_o = 0.5 (ours; docs/channel.md), with the default
   /// face-distance outflow rule: with α_o = 0.25 the L = 1 mm run failed at t = 0.30 s (pressure spikes beside
   /// the outlet and the convex taper corners).
@@ -203,11 +201,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   if (!(c.L > 0.0) || !(c.window > 0.0) || !(c.t_end > c.window))
     fail("run_multi_diameter: need L > 0 and t_end > window > 0 (the balance is averaged over the last `window` ",
          "seconds); got L = ", c.L, ", t_end = ", c.t_end, ", window = ", c.window);
-  if (c.checkpoint.empty() && (c.checkpoint_interval != 0.0 || c.stop_after != 0.0))
-    fail("run_multi_diameter: checkpoint_interval and stop_after need a checkpoint file");
-  if (!(c.checkpoint_interval >= 0.0) || !(c.stop_after >= 0.0))
-    fail("run_multi_diameter: checkpoint_interval (", c.checkpoint_interval, " s) and stop_after (", c.stop_after,
-         " s) must be >= 0");
+  c.pieces.validate("run_multi_diameter");
   const double ell = 3 * c.section, L = c.L;
   multi_diameter_setup su = make_multi_diameter(c);
   simulation<Scene> sim(su.params, std::move(su.initial), &su.walls, &*su.boundary);
@@ -228,14 +222,15 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
                                r.p_max_at[1], r.p_min_t, r.p_max_t, r.u_max, r.u_max_window,
                                static_cast<double>(r.particles), wall_total};
   };
-  if (!c.resume.empty()) {
+  const std::string& resume = c.pieces.resume;
+  if (!resume.empty()) {
     io::checkpoint_sections sec;
-    io::load_simulation(c.resume, sim, &sec);
+    io::load_simulation(resume, sim, &sec);
     const std::vector<double> m = sec.get_doubles("multi_diameter.measures");
     if (m.size() != measures(0.0).size())
-      fail("run_multi_diameter: '", c.resume, "': section 'multi_diameter.measures' holds ", m.size(), " values");
+      fail("run_multi_diameter: '", resume, "': section 'multi_diameter.measures' holds ", m.size(), " values");
     if (m[0] != L || m[1] != c.t_end || m[2] != c.window)
-      fail("run_multi_diameter: '", c.resume, "' was written with L = ", m[0], " m, t_end = ", m[1], " s, window = ", m[2],
+      fail("run_multi_diameter: '", resume, "' was written with L = ", m[0], " m, t_end = ", m[1], " s, window = ", m[2],
            " s; this run has ", L, ", ", c.t_end, ", ", c.window);
     std::size_t k = 3;
     V0 = m[k++];
@@ -258,14 +253,12 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
     wall_before = m[k++];
     r.resumed_at = sim.time();
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  double last_save = 0.0;
+  piece_clock clock(c.pieces);
+  const auto wall = [&] { return clock.wall(); };
   const auto save = [&] {
     io::checkpoint_sections sec;
     sec.add_doubles("multi_diameter.measures", measures(wall_before + wall()));
-    io::save_simulation(c.checkpoint, sim, std::move(sec));
-    last_save = wall();
+    io::save_simulation(c.pieces.checkpoint, sim, std::move(sec));
   };
   struct stopped {};
   std::optional<io::progress_sink> progress;
@@ -277,12 +270,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
                         sim.state().n_real(), wall_before + wall()});
   };
   const auto pause = [&] {  // after a step's measurements: checkpoint, and stop when asked
-    if (c.checkpoint.empty()) return;
-    if (c.checkpoint_interval > 0.0 && wall() - last_save >= c.checkpoint_interval) save();
-    if (c.stop_after > 0.0 && wall() >= c.stop_after && sim.time() < c.t_end) {
-      save();
-      throw stopped{};
-    }
+    if (clock.after_step(save, sim.time() < c.t_end)) throw stopped{};
   };
   try {
     if (!in_window) {
@@ -304,7 +292,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   } catch (const stopped&) {
     r.finished = false;
   }
-  if (!c.checkpoint.empty() && r.finished) save();
+  if (!c.pieces.checkpoint.empty() && r.finished) save();
   r.t_reached = sim.time();
   r.wall_seconds = wall_before + wall();
   const auto& k = sim.counters();

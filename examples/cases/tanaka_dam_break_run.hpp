@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "cases/run_measures.hpp"
+#include "cases/run_pieces.hpp"
 #include "cases/tanaka_dam_break.hpp"
 #include "mpskit/io/lsmps_checkpoint.hpp"
 #include "mpskit/io/probes.hpp"
@@ -84,30 +84,21 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   double wall_seconds_before = 0.0;  ///< wall time of the earlier pieces (s; included in wall_seconds)
 };
 
-/// Long runs in pieces (io/lsmps_checkpoint.hpp; as cases::multi_diameter_config's). With `checkpoint` set, the run
-/// (particles, the scheme's state and the runner's running measurements: front and probe samples, extremes, the
-/// wall time so far) is written there every `checkpoint_interval` wall seconds (> 0) and when the run reaches T_end;
-/// `stop_after` > 0 ends the run after that many wall seconds of this process (at least one step), checkpoint
-/// written, result partial (`stopped`). `resume` names such a file to continue from: the case configuration must be
-/// the file's (every field of tanaka_dam_break_config, compared bitwise; refused otherwise), T_end may differ (a run
-/// can be extended), the scheme options are the caller's to keep the same. A run that fails writes no checkpoint (the
-/// last one written stays). Resumed with the same options, the run is bitwise the uninterrupted one (label restart)
-/// when the solver keeps no factorisation across steps (io/lsmps_checkpoint.hpp; BiCGSTAB-Jacobi, the default).
-struct tanaka_pieces {
-  std::string checkpoint, resume;
-  double checkpoint_interval = 0.0, stop_after = 0.0;
+/// Long runs in pieces (cases/run_pieces.hpp). The checkpoint holds the particles, the scheme's state and the
+/// runner's running measurements (front and probe samples, extremes, the wall time so far); it is written once
+/// before the first step (a bad path or a reserved section name is refused at once, not after hours), then as
+/// run_pieces says. A resumed file must have this case configuration (every field of tanaka_dam_break_config,
+/// compared bitwise; refused otherwise); T_end may differ (a run can be extended); the scheme options are the
+/// caller's to keep the same. A run that fails writes no checkpoint (the last one written stays); a checkpoint that
+/// cannot be written throws, with catch_failure too (it is not the scheme's failure). Resumed with the same options,
+/// the run is bitwise the uninterrupted one (label restart) when the solver keeps no factorisation across steps
+/// (io/lsmps_checkpoint.hpp; BiCGSTAB-Jacobi, the default).
+struct tanaka_pieces : run_pieces {
   /// The caller's own sections (e.g. an example's output state), added to every checkpoint written; names must not
   /// start with "lsmps." or "tanaka_dam_break.".
   std::function<void(io::checkpoint_sections&)> save_extra;
   /// Called once after a resume, before the first step, with every section of the file and the result so far.
   std::function<void(const io::checkpoint_sections&, const tanaka_dam_break_result&)> load_extra;
-  void validate() const {
-    if (checkpoint.empty() && (checkpoint_interval != 0.0 || stop_after != 0.0))
-      fail("tanaka_pieces: checkpoint_interval and stop_after need a checkpoint file");
-    if (!(checkpoint_interval >= 0.0 && checkpoint_interval < HUGE_VAL) || !(stop_after >= 0.0 && stop_after < HUGE_VAL))
-      fail("tanaka_pieces: checkpoint_interval (", checkpoint_interval, " s) and stop_after (", stop_after,
-           " s) must be finite and >= 0");
-  }
 };
 
 namespace detail {
@@ -297,7 +288,7 @@ template <class Scene = lsmps_defaults<2>, class Observer = no_tanaka_observer>
 tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, double T_end,
                                              scheme::lsmps_params<2> p = {}, bool catch_failure = false,
                                              Observer&& observe = {}, const tanaka_pieces& pieces = {}) {
-  pieces.validate();
+  pieces.validate("run_tanaka_dam_break");
   const auto db = make_tanaka_dam_break(c);
   set_tanaka_case_params(c, p);
   simulation<Scene> sim(p, tanaka_initial_state(c, db), &db.walls);
@@ -307,7 +298,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   double next = 0.0;
   const auto volume = [&]() { return sim.state().template get<field::volume>().head(sim.state().n_real()).sum(); };
   double V0 = volume();
-  // The running measurements (sections "tanaka_dam_break.*"; the samples' vectors whole: at 1 mm ≈ 30 000 steps).
+  // The running measurements (sections "tanaka_dam_break.*"; the samples' vectors whole: at 1 mm ≈ 20 000 steps).
   const auto measures = [&](double wall_total) {
     return std::vector<double>{V0, next, r.p_min, r.p_min_copies, r.u_max, r.T_u_max, r.min_pair_ratio, r.T_min_pair,
                                r.min_pair_ratio_non_isolated, static_cast<double>(r.particles), wall_total};
@@ -352,10 +343,11 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     r.resumed_at = db.t_star(sim.time());
     if (pieces.load_extra) pieces.load_extra(sec, r);
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  double last_save = 0.0;
+  piece_clock clock(pieces);
+  const auto wall = [&] { return clock.wall(); };
+  bool saving = false;  // a checkpoint that cannot be written is not the scheme's failure: thrown with catch_failure too
   const auto save = [&] {
+    saving = true;
     io::checkpoint_sections sec;
     if (pieces.save_extra) pieces.save_extra(sec);
     for (const std::string& n : sec.names())
@@ -370,8 +362,9 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     sec.add_doubles("tanaka_dam_break.front", front);
     sec.add_doubles("tanaka_dam_break.probe", probe);
     io::save_simulation(pieces.checkpoint, sim, std::move(sec));
-    last_save = wall();
+    saving = false;
   };
+  if (!pieces.checkpoint.empty()) save();  // before the first step: a bad path or section name is refused at once
   try {
     while (db.t_star(sim.time()) < T_end) {
       sim.step();
@@ -408,17 +401,14 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
         r.Z.push_back(Z);
         r.Z_body.push_back(Z_body);
       }
-      if (pieces.checkpoint.empty()) continue;  // after the step's measurements: checkpoint, and stop when asked
-      if (pieces.checkpoint_interval > 0.0 && wall() - last_save >= pieces.checkpoint_interval) save();
-      if (pieces.stop_after > 0.0 && wall() >= pieces.stop_after && T < T_end) {
-        save();
+      if (clock.after_step(save, T < T_end)) {  // after the step's measurements: checkpoint, and stop when asked
         r.stopped = true;
         break;
       }
     }
     if (!pieces.checkpoint.empty() && !r.stopped) save();
   } catch (const mpskit::error& e) {
-    if (!catch_failure) throw;
+    if (!catch_failure || saving) throw;
     r.failed = true;
     r.T_failed = db.t_star(sim.time());
     r.failure = e.what();
