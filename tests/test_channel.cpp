@@ -845,11 +845,7 @@ cases::multi_diameter_config restart_channel() {
   return c;
 }
 
-template <class A>
-bool same_bits(const A& a, const A& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<std::size_t>(a.size())) == 0;
-}
+using mpskit::test::same_bits;
 
 /// Every counter of the two runs equal.
 void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_counters& b) {
@@ -951,16 +947,15 @@ TEST_SUITE("restart") {
     const auto r = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(second);
     CHECK(r.finished);
     CHECK(r.resumed_at == part.t_reached);
-    const auto same = [](double x, double y) { return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y); };
-    CHECK(same(r.balance, straight.balance));
-    CHECK(same(r.q_in, straight.q_in));
-    CHECK(same(r.q_out, straight.q_out));
-    CHECK(same(r.dvdt, straight.dvdt));
-    CHECK(same(r.p_min, straight.p_min));
-    CHECK(same(r.p_max, straight.p_max));
-    CHECK(same(r.u_max, straight.u_max));
-    CHECK(same(r.u_max_window, straight.u_max_window));
-    CHECK(same(r.ledger_error, straight.ledger_error));
+    CHECK(same_bits(r.balance, straight.balance));
+    CHECK(same_bits(r.q_in, straight.q_in));
+    CHECK(same_bits(r.q_out, straight.q_out));
+    CHECK(same_bits(r.dvdt, straight.dvdt));
+    CHECK(same_bits(r.p_min, straight.p_min));
+    CHECK(same_bits(r.p_max, straight.p_max));
+    CHECK(same_bits(r.u_max, straight.u_max));
+    CHECK(same_bits(r.u_max_window, straight.u_max_window));
+    CHECK(same_bits(r.ledger_error, straight.ledger_error));
     CHECK(r.steps == straight.steps);
     CHECK(r.particles == straight.particles);
     CHECK(r.particles_end == straight.particles_end);

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -1565,26 +1564,21 @@ TEST_SUITE("restart") {
     CHECK(r.resumed_at == b.T_reached);
     CHECK(r.wall_seconds_before > b.wall_seconds_before);  // the earlier pieces' wall time travels in the file
     CHECK(b.wall_seconds_before > 0.0);
-    const auto bits = [](const std::vector<double>& v) {
-      std::vector<std::uint64_t> out;
-      for (const double x : v) out.push_back(std::bit_cast<std::uint64_t>(x));
-      return out;
-    };
-    const auto same = [](double x, double y) { return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y); };
+    using mpskit::test::same_bits;
     REQUIRE(straight.probe_t.size() == r.probe_t.size());
-    CHECK(bits(r.probe_t) == bits(straight.probe_t));
-    CHECK(bits(r.probe_p) == bits(straight.probe_p));  // NaN while dry: compared as bits
-    CHECK(bits(r.T) == bits(straight.T));
-    CHECK(bits(r.Z) == bits(straight.Z));
-    CHECK(bits(r.Z_body) == bits(straight.Z_body));
-    CHECK(same(r.p_min, straight.p_min));
-    CHECK(same(r.p_min_copies, straight.p_min_copies));
-    CHECK(same(r.u_max, straight.u_max));
-    CHECK(same(r.T_u_max, straight.T_u_max));
-    CHECK(same(r.min_pair_ratio, straight.min_pair_ratio));
-    CHECK(same(r.T_min_pair, straight.T_min_pair));
-    CHECK(same(r.min_pair_ratio_non_isolated, straight.min_pair_ratio_non_isolated));
-    CHECK(same(r.volume_change, straight.volume_change));
+    CHECK(same_bits(r.probe_t, straight.probe_t));
+    CHECK(same_bits(r.probe_p, straight.probe_p));  // NaN while dry: compared as bits
+    CHECK(same_bits(r.T, straight.T));
+    CHECK(same_bits(r.Z, straight.Z));
+    CHECK(same_bits(r.Z_body, straight.Z_body));
+    CHECK(same_bits(r.p_min, straight.p_min));
+    CHECK(same_bits(r.p_min_copies, straight.p_min_copies));
+    CHECK(same_bits(r.u_max, straight.u_max));
+    CHECK(same_bits(r.T_u_max, straight.T_u_max));
+    CHECK(same_bits(r.min_pair_ratio, straight.min_pair_ratio));
+    CHECK(same_bits(r.T_min_pair, straight.T_min_pair));
+    CHECK(same_bits(r.min_pair_ratio_non_isolated, straight.min_pair_ratio_non_isolated));
+    CHECK(same_bits(r.volume_change, straight.volume_change));
     CHECK(r.steps == straight.steps);
     CHECK(r.ppe_iterations == straight.ppe_iterations);
     CHECK(r.collisions == straight.collisions);
@@ -1595,7 +1589,7 @@ TEST_SUITE("restart") {
     // The run must have reached what it is compared on: the impact at the probe, within the 10 ms window.
     const cases::impact_measures m = cases::far_wall_impact(r);
     CHECK(std::isfinite(m.t_arrival));
-    CHECK(same(m.impulse, cases::far_wall_impact(straight).impulse));
+    CHECK(same_bits(m.impulse, cases::far_wall_impact(straight).impulse));
     CHECK(r.collisions > 0);
     CHECK(r.active_set_rows > 0);
 
@@ -1635,9 +1629,9 @@ TEST_SUITE("restart") {
     from0.resume = killed.checkpoint;
     const auto r0 = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, from0);
     CHECK(r0.resumed_at == 0.0);
-    CHECK(bits(r0.probe_p) == bits(straight.probe_p));
-    CHECK(bits(r0.Z) == bits(straight.Z));
-    CHECK(same(r0.u_max, straight.u_max));
+    CHECK(same_bits(r0.probe_p, straight.probe_p));
+    CHECK(same_bits(r0.Z, straight.Z));
+    CHECK(same_bits(r0.u_max, straight.u_max));
     CHECK(r0.steps == straight.steps);
   }
 }  // TEST_SUITE

@@ -54,11 +54,7 @@ void steps(sim_t& s, int n) {
   for (int k = 0; k < n; ++k) s.step();
 }
 
-/// Bytes of two Eigen objects equal (bitwise: −0.0 ≠ 0.0, NaN payloads count).
-template <class A>
-bool same_bits(const A& a, const A& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
-}
+using mpskit::test::same_bits;
 
 void check_same_counters(const scheme::semi_implicit_counters& a, const scheme::semi_implicit_counters& b) {
   for (long scheme::semi_implicit_counters::*f : scheme::semi_implicit_counter_fields) CHECK(a.*f == b.*f);

@@ -1,5 +1,8 @@
 #pragma once
-// Shared test helpers: point sets and scratch directories (one definition for every suite).
+// Shared test helpers: point sets, scratch directories and bitwise comparisons (one definition for every suite).
+#include <bit>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -28,6 +31,15 @@ points<D> jittered_lattice(int m, double h, double jitter, std::mt19937_64& rng)
         if constexpr (D == 3) x(2, k) = (c + U(rng)) * h;
       }
   return x;
+}
+
+/// The same bits (restart tests: a resumed run against the uninterrupted one; −0.0 ≠ 0.0, a NaN equals the same
+/// NaN): two doubles, or two contiguous containers of the same type (Eigen dense objects, std::vector).
+inline bool same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+template <class A>
+bool same_bits(const A& a, const A& b) {
+  return a.size() == b.size() &&
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<std::size_t>(a.size())) == 0);
 }
 
 /// A scratch directory (temp dir / "<prefix>_<pid>_<name>") removed at the end of the test.
