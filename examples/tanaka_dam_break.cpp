@@ -34,7 +34,7 @@
 //            walls, 375 mm with --obstacle; over 300 mm the far-wall run-up throws particles out from t ≈ 0.37 s,
 //            T ≈ 5.1, which are removed and counted: tanaka_dam_break_config::remove_outside)
 //   --obstacle  §5.6.2's vessel (column 100 × 250 mm, 10 × 10 mm block at x = 0; probe 5 mm above the block)
-//   --full   the paper's L = 1 mm (19 969 particles). Measured before 2026-12-03, with the defaults of that time
+//   --full   the paper's L = 1 mm (20 000 particles; the paper reports 19 969, docs/regularize.md). Measured before 2026-12-03, with the defaults of that time
 //            (add --collision 0 --no-shift-isolated, or --no-collide-isolated --no-shift-isolated with
 //            --collision, to repeat these): at 2 mm the two-point
 //            configuration without the active set fails at T ≈ 1.4 (docs/resolution.md); with
@@ -65,8 +65,8 @@
 //            runner's front and probe samples and extremes, this program's output state) every S wall seconds and at
 //            its end; --stop-after S: stop after S wall seconds of this process, checkpoint written (2D only;
 //            cases::tanaka_pieces, docs/run.md "Checkpoint and restart")
-//   --resume FILE: continue such a run with the same case and scheme options and the same --out (both refused
-//            otherwise; --T may differ: a run can be extended); the ParaView series, the pictures, front.csv and
+//   --resume FILE: continue such a run with the same case and scheme options, --trace and --out (refused
+//            otherwise; --T may differ: a run can be extended, a file at or beyond it is refused); the ParaView series, the pictures, front.csv and
 //            probe.csv continue as if uninterrupted (the run is bitwise the uninterrupted one, label restart)
 // Exit status 0 when the run reached T_end or stopped at --stop-after, 1 when the scheme failed (the summary says where).
 #include <algorithm>
@@ -95,6 +95,14 @@ namespace fs = std::filesystem;
 using namespace mpskit;
 
 namespace {
+/// A file's size; an mpskit::error naming it when it cannot be read (the trace file of a run in pieces).
+std::uintmax_t file_bytes(const fs::path& f) {
+  std::error_code ec;
+  const std::uintmax_t n = fs::file_size(f, ec);
+  if (ec) fail("tanaka_dam_break: cannot read the size of '", f.string(), "': ", ec.message());
+  return n;
+}
+
 /// --slab N: the 3D slab (cases/tanaka_dam_break_slab.hpp), N layers deep, with the library's impact configuration
 /// scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2 (lsmps_params<3>{}); the
 /// collision and isolated-particle flags as in 2D. Writes a ParaView series every 0.25 in T and the front against the
@@ -305,9 +313,11 @@ int main(int argc, char** argv) {
     // probe and the trace file's length (what a killed run traced after the checkpoint is cut off and traced again).
     // particles.dat may hold a later state than the checkpoint's until the next frame rewrites it (at the latest the
     // run's last step, from which the picture is drawn).
-    char options_text[256];
-    std::snprintf(options_text, sizeof options_text, "walls %s, collision %.17g, collide_isolated %d, shift_isolated %d, fallback %d",
-                  walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback));
+    char options_text[320];
+    std::snprintf(options_text, sizeof options_text,
+                  "walls %s, collision %.17g, collide_isolated %d, shift_isolated %d, fallback %d, trace %.17g",
+                  walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback),
+                  trace ? trace_speed : -1.0);
     const std::string options = options_text;
     pieces.save_extra = [&](io::checkpoint_sections& s) {
       s.add_bytes("example.options", options);
@@ -315,7 +325,7 @@ int main(int argc, char** argv) {
       const auto& written = vtk.pvd().entries();
       s.add_doubles("example.output", {next_vtk, T_snap, double(last_it), double(traced), double(written.size()),
                                        written.empty() ? 0.0 : written.back().time,
-                                       trace ? double(fs::file_size(trace_path)) : -1.0});  // flushed per trace
+                                       trace ? double(file_bytes(trace_path)) : -1.0});  // flushed per trace
       std::vector<double> ob = obstacle_t;
       ob.insert(ob.end(), obstacle_p.begin(), obstacle_p.end());
       s.add_doubles("example.obstacle_probe", ob);
@@ -339,7 +349,8 @@ int main(int argc, char** argv) {
       const fs::path pvd = fs::path(out) / "tanaka_dam_break.pvd";
       std::vector<io::pvd_entry> entries;
       if (files > 0) {
-        if (!fs::exists(pvd))
+        std::error_code ec;
+        if (!fs::exists(pvd, ec))
           fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, and '", pvd.string(),
                "' does not exist (resume with the --out of the run that wrote it)");
         entries = io::read_pvd(pvd);
@@ -354,7 +365,11 @@ int main(int argc, char** argv) {
       if (trace) {  // the trace file as it was at the checkpoint (not traced then: from the start)
         trace_out.close();
         const auto bytes = static_cast<std::uintmax_t>(std::max(0.0, o[6]));
-        if (fs::exists(trace_path) && fs::file_size(trace_path) > bytes) fs::resize_file(trace_path, bytes);
+        std::error_code ec;
+        if (fs::exists(trace_path, ec) && file_bytes(trace_path) > bytes) {
+          fs::resize_file(trace_path, bytes, ec);
+          if (ec) fail("tanaka_dam_break: cannot cut '", trace_path.string(), "' back to ", bytes, " bytes: ", ec.message());
+        }
         trace_out.open(trace_path, std::ios::app);
       }
       obstacle_t.assign(ob.begin(), ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2));

@@ -1555,7 +1555,6 @@ TEST_SUITE("restart") {
     };
     const auto b = cases::run_tanaka_dam_break(c, 2.0, p, false, cases::no_tanaka_observer{}, second);
     CHECK(extra == 42.0);
-    CHECK_FALSE(b.stopped);
     CHECK(b.resumed_at == a.T_reached);
     CHECK(b.T_reached >= 2.0);
     cases::tanaka_pieces third;
@@ -1616,6 +1615,21 @@ TEST_SUITE("restart") {
     cases::tanaka_pieces unwritable;
     unwritable.checkpoint = (tmp / "no_such_dir" / "x.mpscp").string();
     CHECK_THROWS_AS(cases::run_tanaka_dam_break(c, 0.1, p, true, cases::no_tanaka_observer{}, unwritable), mpskit::error);
+    // ... and so is one that fails later (here the caller's section on the second write, after the first step).
+    cases::tanaka_pieces later;
+    later.checkpoint = (tmp / "later.mpscp").string();
+    later.checkpoint_interval = 1e-9;
+    int writes = 0;
+    later.save_extra = [&](io::checkpoint_sections&) {
+      if (++writes == 2) fail("caller's section refused");
+    };
+    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 0.5, p, true, cases::no_tanaka_observer{}, later),
+                         doctest::Contains("caller's section refused"), mpskit::error);
+    // A file at or beyond T_end: nothing to run.
+    cases::tanaka_pieces past;
+    past.resume = second.checkpoint;  // written at the end, T >= 2
+    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 1.5, p, false, cases::no_tanaka_observer{}, past),
+                         doctest::Contains("nothing to run"), mpskit::error);
 
     // A run killed before its first interval leaves the checkpoint written before the first step; resumed from it,
     // the run is the straight one.

@@ -32,6 +32,7 @@ struct run_pieces {
 class piece_clock {
  public:
   explicit piece_clock(const run_pieces& p) : p_(p), t0_(std::chrono::steady_clock::now()) {}
+  piece_clock(run_pieces&&) = delete;  // keeps a reference: not to a temporary
   /// Wall seconds of this process's piece.
   double wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
   /// After a step's measurements: calls `save()` when the interval has passed, and when this piece has run

@@ -88,9 +88,10 @@ struct tanaka_dam_break_result : tanaka_run_counts {
 /// runner's running measurements (front and probe samples, extremes, the wall time so far); it is written once
 /// before the first step (a bad path or a reserved section name is refused at once, not after hours), then as
 /// run_pieces says. A resumed file must have this case configuration (every field of tanaka_dam_break_config,
-/// compared bitwise; refused otherwise); T_end may differ (a run can be extended); the scheme options are the
-/// caller's to keep the same. A run that fails writes no checkpoint (the last one written stays); a checkpoint that
-/// cannot be written throws, with catch_failure too (it is not the scheme's failure). Resumed with the same options,
+/// compared bitwise; refused otherwise); T_end may differ (a run can be extended; a file at or beyond T_end is
+/// refused: nothing to run); the scheme options are the caller's to keep the same. A run that fails writes no
+/// checkpoint (the last one written stays); a checkpoint that cannot be written throws, with catch_failure too (it
+/// is not the scheme's failure). Resumed with the same options,
 /// the run is bitwise the uninterrupted one (label restart) when the solver keeps no factorisation across steps
 /// (io/lsmps_checkpoint.hpp; BiCGSTAB-Jacobi, the default).
 struct tanaka_pieces : run_pieces {
@@ -341,6 +342,9 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     r.probe_t.assign(probe.begin(), probe.begin() + static_cast<std::ptrdiff_t>(np));
     r.probe_p.assign(probe.begin() + static_cast<std::ptrdiff_t>(np), probe.end());
     r.resumed_at = db.t_star(sim.time());
+    if (!(r.resumed_at < T_end))
+      fail("run_tanaka_dam_break: '", file, "' is at T = ", r.resumed_at, ", not before this run's T_end = ", T_end,
+           " (nothing to run)");
     if (pieces.load_extra) pieces.load_extra(sec, r);
   }
   piece_clock clock(pieces);

@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #if __has_include(<unistd.h>)
 #include <unistd.h>
@@ -34,12 +35,18 @@ points<D> jittered_lattice(int m, double h, double jitter, std::mt19937_64& rng)
 }
 
 /// The same bits (restart tests: a resumed run against the uninterrupted one; −0.0 ≠ 0.0, a NaN equals the same
-/// NaN): two doubles, or two contiguous containers of the same type (Eigen dense objects, std::vector).
+/// NaN): two doubles, two std::vectors, or two Eigen matrices or arrays that own their storage (the same shape;
+/// expressions and strided views are not accepted: copy them into a plain object).
 inline bool same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
-template <class A>
-bool same_bits(const A& a, const A& b) {
-  return a.size() == b.size() &&
-         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<std::size_t>(a.size())) == 0);
+template <class T>
+bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), sizeof(T) * a.size()) == 0);
+}
+template <class Derived>
+bool same_bits(const Eigen::PlainObjectBase<Derived>& a, const Eigen::PlainObjectBase<Derived>& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         (a.size() == 0 ||
+          std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<std::size_t>(a.size())) == 0);
 }
 
 /// A scratch directory (temp dir / "<prefix>_<pid>_<name>") removed at the end of the test.
