@@ -374,7 +374,7 @@ int main(int argc, char** argv) {
       }
       obstacle_t.assign(ob.begin(), ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2));
       obstacle_p.assign(ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2), ob.end());
-      std::printf("  resumed from '%s' at T = %.4f (step %ld, %.0f s of wall time before)\n", file.c_str(),
+      std::printf("  resumed from '%s' at T = %.4f (step %ld, %.1f s of wall time before)\n", file.c_str(),
                   so_far.resumed_at, long(counters.summary(0.0).steps), so_far.wall_seconds_before);
     };
     std::printf("mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid particles, "
