@@ -326,9 +326,7 @@ int main(int argc, char** argv) {
       s.add_doubles("example.output", {next_vtk, T_snap, double(last_it), double(traced), double(written.size()),
                                        written.empty() ? 0.0 : written.back().time,
                                        trace ? double(file_bytes(trace_path)) : -1.0});  // flushed per trace
-      std::vector<double> ob = obstacle_t;
-      ob.insert(ob.end(), obstacle_p.begin(), obstacle_p.end());
-      s.add_doubles("example.obstacle_probe", ob);
+      cases::add_columns(s, "example.obstacle_probe", {&obstacle_t, &obstacle_p});
     };
     pieces.load_extra = [&](const io::checkpoint_sections& s, const cases::tanaka_dam_break_result& so_far) {
       const std::string& file = pieces.resume;
@@ -336,10 +334,10 @@ int main(int argc, char** argv) {
         fail("tanaka_dam_break: '", file, "' was written with ", s.get_bytes("example.options"), "; this run has ", options,
              " (resume with the same options)");
       counters.from_values(s.get_int64s("example.counters"));
-      const std::vector<double> o = s.get_doubles("example.output"), ob = s.get_doubles("example.obstacle_probe");
-      if (o.size() != 7 || ob.size() % 2 != 0)
-        fail("tanaka_dam_break: '", file, "': sections 'example.output' and 'example.obstacle_probe' hold ", o.size(),
-             " and ", ob.size(), " values (expected 7 and a multiple of 2)");
+      const std::vector<double> o = s.get_doubles("example.output");
+      if (o.size() != 7)
+        fail("tanaka_dam_break: '", file, "': section 'example.output' holds ", o.size(), " values (expected 7)");
+      cases::get_columns(s, "example.obstacle_probe", {&obstacle_t, &obstacle_p}, "tanaka_dam_break", file);
       next_vtk = o[0];
       T_snap = o[1];
       last_it = static_cast<long>(o[2]);
@@ -372,8 +370,6 @@ int main(int argc, char** argv) {
         }
         trace_out.open(trace_path, std::ios::app);
       }
-      obstacle_t.assign(ob.begin(), ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2));
-      obstacle_p.assign(ob.begin() + static_cast<std::ptrdiff_t>(ob.size() / 2), ob.end());
       std::printf("  resumed from '%s' at T = %.4f (step %ld, %.1f s of wall time before)\n", file.c_str(),
                   so_far.resumed_at, long(counters.summary(0.0).steps), so_far.wall_seconds_before);
     };

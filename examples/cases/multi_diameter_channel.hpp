@@ -215,49 +215,33 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   r.p_min = 1e300;
   r.p_max = -1e300;
   bool in_window = false;  // the averaging window: |u| also goes to u_max_window
-  // The running measurements, saved beside the simulation in a checkpoint (section "multi_diameter.measures").
-  const auto measures = [&](double wall_total) {
-    return std::vector<double>{L, c.t_end, c.window, V0, qin, qout, static_cast<double>(samples), v_begin, t_begin,
-                               in_window ? 1.0 : 0.0, r.p_min, r.p_max, r.p_min_at[0], r.p_min_at[1], r.p_max_at[0],
-                               r.p_max_at[1], r.p_min_t, r.p_max_t, r.u_max, r.u_max_window,
-                               static_cast<double>(r.particles), wall_total};
-  };
+  piece_clock clock(c.pieces);
+  const auto wall = [&] { return clock.wall(); };
+  // The running measurements, saved beside the simulation in a checkpoint (section "multi_diameter.measures", after
+  // the configuration's L, t_end and window).
+  measure_list measures;
+  measures(V0)(qin)(qout)(samples)(v_begin)(t_begin)(in_window)(r.p_min)(r.p_max)(r.p_min_at[0])(r.p_min_at[1])(
+      r.p_max_at[0])(r.p_max_at[1])(r.p_min_t)(r.p_max_t)(r.u_max)(r.u_max_window)(r.particles)
+      .add([&] { return wall_before + wall(); }, [&](double w) { wall_before = w; });
   const std::string& resume = c.pieces.resume;
   if (!resume.empty()) {
     io::checkpoint_sections sec;
     io::load_simulation(resume, sim, &sec);
     const std::vector<double> m = sec.get_doubles("multi_diameter.measures");
-    if (m.size() != measures(0.0).size())
+    if (m.size() != 3 + measures.size())
       fail("run_multi_diameter: '", resume, "': section 'multi_diameter.measures' holds ", m.size(), " values");
     if (m[0] != L || m[1] != c.t_end || m[2] != c.window)
       fail("run_multi_diameter: '", resume, "' was written with L = ", m[0], " m, t_end = ", m[1], " s, window = ", m[2],
            " s; this run has ", L, ", ", c.t_end, ", ", c.window);
-    std::size_t k = 3;
-    V0 = m[k++];
-    qin = m[k++];
-    qout = m[k++];
-    samples = static_cast<long>(m[k++]);
-    v_begin = m[k++];
-    t_begin = m[k++];
-    in_window = m[k++] != 0.0;
-    r.p_min = m[k++];
-    r.p_max = m[k++];
-    r.p_min_at = vec<2>(m[k], m[k + 1]);
-    r.p_max_at = vec<2>(m[k + 2], m[k + 3]);
-    k += 4;
-    r.p_min_t = m[k++];
-    r.p_max_t = m[k++];
-    r.u_max = m[k++];
-    r.u_max_window = m[k++];
-    r.particles = static_cast<index_t>(m[k++]);
-    wall_before = m[k++];
+    measures.assign(m, 3);
     r.resumed_at = sim.time();
   }
-  piece_clock clock(c.pieces);
-  const auto wall = [&] { return clock.wall(); };
   const auto save = [&] {
     io::checkpoint_sections sec;
-    sec.add_doubles("multi_diameter.measures", measures(wall_before + wall()));
+    std::vector<double> m{L, c.t_end, c.window};
+    const std::vector<double> v = measures.values();
+    m.insert(m.end(), v.begin(), v.end());
+    sec.add_doubles("multi_diameter.measures", m);
     io::save_simulation(c.pieces.checkpoint, sim, std::move(sec));
   };
   struct stopped {};
@@ -292,7 +276,7 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   } catch (const stopped&) {
     r.finished = false;
   }
-  if (!c.pieces.checkpoint.empty() && r.finished) save();
+  if (r.finished) clock.at_end(save);
   r.t_reached = sim.time();
   r.wall_seconds = wall_before + wall();
   const auto& k = sim.counters();

@@ -4,9 +4,16 @@
 // (cases/tanaka_dam_break_run.hpp). docs/run.md "Checkpoint and restart".
 #include <chrono>
 #include <cmath>
+#include <concepts>
+#include <cstddef>
+#include <functional>
+#include <initializer_list>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "mpskit/core/error.hpp"
+#include "mpskit/io/checkpoint.hpp"
 
 namespace mpskit::cases {
 
@@ -51,11 +58,74 @@ class piece_clock {
     }
     return false;
   }
+  /// When the run has reached its end: calls `save()` if there is a checkpoint file.
+  template <class Save>
+  void at_end(Save&& save) const {
+    if (!p_.checkpoint.empty()) save();
+  }
 
  private:
   const run_pieces& p_;
   std::chrono::steady_clock::time_point t0_;
   double last_save_ = 0.0;
 };
+
+/// A run's scalar measurements as one ordered list of places, written to a checkpoint section and read back in the
+/// same order (so the order is stated once). Integers and flags are stored as doubles (exact below 2^53).
+class measure_list {
+ public:
+  measure_list& operator()(double& v) {
+    return add([&v] { return v; }, [&v](double x) { v = x; });
+  }
+  template <std::integral I>
+  measure_list& operator()(I& v) {
+    if constexpr (std::same_as<I, bool>)
+      return add([&v] { return v ? 1.0 : 0.0; }, [&v](double x) { v = x != 0.0; });
+    else
+      return add([&v] { return static_cast<double>(v); }, [&v](double x) { v = static_cast<I>(x); });
+  }
+  /// A value written and read through functions (e.g. the wall time: this piece's added when written).
+  measure_list& add(std::function<double()> get, std::function<void(double)> set) {
+    places_.emplace_back(std::move(get), std::move(set));
+    return *this;
+  }
+  std::size_t size() const { return places_.size(); }
+  std::vector<double> values() const {
+    std::vector<double> v;
+    v.reserve(places_.size());
+    for (const auto& p : places_) v.push_back(p.first());
+    return v;
+  }
+  /// Reads `size()` values from m[offset] on (the caller has checked m's length).
+  void assign(const std::vector<double>& m, std::size_t offset = 0) const {
+    for (std::size_t k = 0; k < places_.size(); ++k) places_[k].second(m[offset + k]);
+  }
+
+ private:
+  std::vector<std::pair<std::function<double()>, std::function<void(double)>>> places_;
+};
+
+/// Equal-length sample vectors as one section of doubles, one after the other (a front's T, Z, ...).
+inline void add_columns(io::checkpoint_sections& s, std::string name,
+                        std::initializer_list<const std::vector<double>*> columns) {
+  std::vector<double> v;
+  for (const auto* c : columns) v.insert(v.end(), c->begin(), c->end());
+  s.add_doubles(std::move(name), v);
+}
+
+/// Reads a section written by add_columns into `columns` (refused unless its length is a multiple of their number;
+/// `who` and `file` name the caller and the checkpoint in the message).
+inline void get_columns(const io::checkpoint_sections& s, const std::string& name,
+                        std::initializer_list<std::vector<double>*> columns, const char* who, const std::string& file) {
+  const std::vector<double> v = s.get_doubles(name);
+  if (v.size() % columns.size() != 0)
+    fail(who, ": '", file, "': section '", name, "' holds ", v.size(), " values, not a multiple of ", columns.size());
+  const auto n = static_cast<std::ptrdiff_t>(v.size() / columns.size());
+  auto from = v.begin();
+  for (auto* c : columns) {
+    c->assign(from, from + n);
+    from += n;
+  }
+}
 
 }  // namespace mpskit::cases

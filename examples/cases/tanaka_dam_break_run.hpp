@@ -299,11 +299,14 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   double next = 0.0;
   const auto volume = [&]() { return sim.state().template get<field::volume>().head(sim.state().n_real()).sum(); };
   double V0 = volume();
-  // The running measurements (sections "tanaka_dam_break.*"; the samples' vectors whole: at 1 mm ≈ 20 000 steps).
-  const auto measures = [&](double wall_total) {
-    return std::vector<double>{V0, next, r.p_min, r.p_min_copies, r.u_max, r.T_u_max, r.min_pair_ratio, r.T_min_pair,
-                               r.min_pair_ratio_non_isolated, static_cast<double>(r.particles), wall_total};
-  };
+  piece_clock clock(pieces);
+  const auto wall = [&] { return clock.wall(); };
+  // The running measurements (section "tanaka_dam_break.measures"; the samples' vectors whole in ".front" and ".probe":
+  // at 1 mm ≈ 20 000 steps).
+  measure_list measures;
+  measures(V0)(next)(r.p_min)(r.p_min_copies)(r.u_max)(r.T_u_max)(r.min_pair_ratio)(r.T_min_pair)(
+      r.min_pair_ratio_non_isolated)(r.particles)
+      .add([&] { return r.wall_seconds_before + wall(); }, [&](double w) { r.wall_seconds_before = w; });
   if (!pieces.resume.empty()) {
     const std::string& file = pieces.resume;
     io::checkpoint_sections sec;
@@ -317,38 +320,18 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
         fail("run_tanaka_dam_break: '", file, "' was written with ", detail::tanaka_config_names[k], " = ", cv[k],
              "; this run has ", want[k], " (resume with the file's configuration)");
     const std::vector<double> m = sec.get_doubles("tanaka_dam_break.measures");
-    const std::vector<double> front = sec.get_doubles("tanaka_dam_break.front");
-    const std::vector<double> probe = sec.get_doubles("tanaka_dam_break.probe");
-    if (m.size() != measures(0.0).size() || front.size() % 3 != 0 || probe.size() % 2 != 0)
-      fail("run_tanaka_dam_break: '", file, "': sections 'tanaka_dam_break.measures', '.front', '.probe' hold ", m.size(),
-           ", ", front.size(), ", ", probe.size(), " values (expected ", measures(0.0).size(),
-           ", a multiple of 3, a multiple of 2)");
-    std::size_t k = 0;
-    V0 = m[k++];
-    next = m[k++];
-    r.p_min = m[k++];
-    r.p_min_copies = m[k++];
-    r.u_max = m[k++];
-    r.T_u_max = m[k++];
-    r.min_pair_ratio = m[k++];
-    r.T_min_pair = m[k++];
-    r.min_pair_ratio_non_isolated = m[k++];
-    r.particles = static_cast<index_t>(m[k++]);
-    r.wall_seconds_before = m[k++];
-    const std::size_t nf = front.size() / 3, np = probe.size() / 2;
-    r.T.assign(front.begin(), front.begin() + static_cast<std::ptrdiff_t>(nf));
-    r.Z.assign(front.begin() + static_cast<std::ptrdiff_t>(nf), front.begin() + static_cast<std::ptrdiff_t>(2 * nf));
-    r.Z_body.assign(front.begin() + static_cast<std::ptrdiff_t>(2 * nf), front.end());
-    r.probe_t.assign(probe.begin(), probe.begin() + static_cast<std::ptrdiff_t>(np));
-    r.probe_p.assign(probe.begin() + static_cast<std::ptrdiff_t>(np), probe.end());
+    if (m.size() != measures.size())
+      fail("run_tanaka_dam_break: '", file, "': section 'tanaka_dam_break.measures' holds ", m.size(),
+           " values, expected ", measures.size());
+    measures.assign(m);
+    get_columns(sec, "tanaka_dam_break.front", {&r.T, &r.Z, &r.Z_body}, "run_tanaka_dam_break", file);
+    get_columns(sec, "tanaka_dam_break.probe", {&r.probe_t, &r.probe_p}, "run_tanaka_dam_break", file);
     r.resumed_at = db.t_star(sim.time());
     if (!(r.resumed_at < T_end))
       fail("run_tanaka_dam_break: '", file, "' is at T = ", r.resumed_at, ", not before this run's T_end = ", T_end,
            " (nothing to run)");
     if (pieces.load_extra) pieces.load_extra(sec, r);
   }
-  piece_clock clock(pieces);
-  const auto wall = [&] { return clock.wall(); };
   bool saving = false;  // a checkpoint that cannot be written is not the scheme's failure: thrown with catch_failure too
   const auto save = [&] {
     saving = true;
@@ -358,13 +341,9 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       if (n.rfind("tanaka_dam_break.", 0) == 0)
         fail("run_tanaka_dam_break: the caller's section name '", n, "' is reserved");
     sec.add_doubles("tanaka_dam_break.config", detail::tanaka_config_values(c));
-    sec.add_doubles("tanaka_dam_break.measures", measures(r.wall_seconds_before + wall()));
-    std::vector<double> front = r.T, probe = r.probe_t;
-    front.insert(front.end(), r.Z.begin(), r.Z.end());
-    front.insert(front.end(), r.Z_body.begin(), r.Z_body.end());
-    probe.insert(probe.end(), r.probe_p.begin(), r.probe_p.end());
-    sec.add_doubles("tanaka_dam_break.front", front);
-    sec.add_doubles("tanaka_dam_break.probe", probe);
+    sec.add_doubles("tanaka_dam_break.measures", measures.values());
+    add_columns(sec, "tanaka_dam_break.front", {&r.T, &r.Z, &r.Z_body});
+    add_columns(sec, "tanaka_dam_break.probe", {&r.probe_t, &r.probe_p});
     io::save_simulation(pieces.checkpoint, sim, std::move(sec));
     saving = false;
   };
@@ -410,7 +389,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
         break;
       }
     }
-    if (!pieces.checkpoint.empty() && !r.stopped) save();
+    if (!r.stopped) clock.at_end(save);
   } catch (const mpskit::error& e) {
     if (!catch_failure || saving) throw;
     r.failed = true;
