@@ -1776,7 +1776,9 @@ TEST_SUITE("multires_hard") {
     // the floor through the free surface and both triple corners at the floor), a linear ramp to 1.05 L 30 mm
     // outside it, ramped in over 0.15 s. With the default wall rows (copy_row = parent_gradient) this fails: the
     // PPE does not converge at 1.41 √(H/g) (2.39 and 2.44 with a 0.5 s ramp in the two records of 2026-11-28; rerun
-    // with the cold restart of 2026-12-05: 1.42 and 2.53; docs/resolution.md "What fails in 3D").
+    // with the cold restart of 2026-12-05: 1.42 and 2.53). Not the solver's: with SparseLU behind BiCGSTAB
+    // (ppe::with_fallback) the velocities grow before the first failed solve and the run blows up at 1.43 and 2.53
+    // (docs/resolution.md "What fails in 3D", 2026-12-06).
     // With the copies as Neumann points (copy_row = neumann_points, docs/lsmps_scheme.md deviation 11; opt-in)
     // it runs to the end. Measured (2026-11-28; 34 s wall, two threads; to 7 √(H/g)): 384 -> 949 particles (583 splits,
     // 18 merges), max |u| 0.19 √(gH) during the ramp and 2.2e-2 at the end, min r_ij/L_ij 0.398, c ≤ 1.54, guard 0.
