@@ -35,7 +35,8 @@ struct run_pieces {
   }
 };
 
-/// The wall clock of one piece: when to write the checkpoint and when to stop.
+/// The wall clock of one piece: when to write the checkpoint and when to stop. It counts from its construction,
+/// which the runners place before a resumed file is loaded (the load is part of the piece's wall time).
 class piece_clock {
  public:
   explicit piece_clock(const run_pieces& p) : p_(p), t0_(std::chrono::steady_clock::now()) {}
@@ -84,7 +85,7 @@ class measure_list {
     else
       return add([&v] { return static_cast<double>(v); }, [&v](double x) { v = static_cast<I>(x); });
   }
-  /// A value written and read through functions (e.g. the wall time: this piece's added when written).
+  /// A value written and read through functions (e.g. the wall time: the earlier pieces' plus this piece's so far).
   measure_list& add(std::function<double()> get, std::function<void(double)> set) {
     places_.emplace_back(std::move(get), std::move(set));
     return *this;
@@ -105,11 +106,17 @@ class measure_list {
   std::vector<std::pair<std::function<double()>, std::function<void(double)>>> places_;
 };
 
-/// Equal-length sample vectors as one section of doubles, one after the other (a front's T, Z, ...).
+/// Equal-length sample vectors as one section of doubles, one after the other (a front's T, Z, ...); refused when
+/// there are none or their lengths differ.
 inline void add_columns(io::checkpoint_sections& s, std::string name,
                         std::initializer_list<const std::vector<double>*> columns) {
+  if (columns.size() == 0) fail("add_columns: section '", name, "': no columns");
   std::vector<double> v;
-  for (const auto* c : columns) v.insert(v.end(), c->begin(), c->end());
+  for (const auto* c : columns) {
+    if (c->size() != (*columns.begin())->size())
+      fail("add_columns: section '", name, "': columns of ", (*columns.begin())->size(), " and ", c->size(), " values");
+    v.insert(v.end(), c->begin(), c->end());
+  }
   s.add_doubles(std::move(name), v);
 }
 
@@ -117,6 +124,7 @@ inline void add_columns(io::checkpoint_sections& s, std::string name,
 /// `who` and `file` name the caller and the checkpoint in the message).
 inline void get_columns(const io::checkpoint_sections& s, const std::string& name,
                         std::initializer_list<std::vector<double>*> columns, const char* who, const std::string& file) {
+  if (columns.size() == 0) fail(who, ": section '", name, "': no columns to read");
   const std::vector<double> v = s.get_doubles(name);
   if (v.size() % columns.size() != 0)
     fail(who, ": '", file, "': section '", name, "' holds ", v.size(), " values, not a multiple of ", columns.size());
