@@ -1778,7 +1778,9 @@ TEST_SUITE("multires_hard") {
     // PPE does not converge at 1.41 √(H/g) (2.39 and 2.44 with a 0.5 s ramp in the two records of 2026-11-28; rerun
     // with the cold restart of 2026-12-05: 1.42 and 2.53). Not the solver's: with SparseLU behind BiCGSTAB
     // (ppe::with_fallback) the velocities grow before the first failed solve and the run blows up at 1.43 and 2.53
-    // (docs/resolution.md "What fails in 3D", 2026-12-06).
+    // (docs/resolution.md "What fails in 3D", 2026-12-06). With the default rows and scheme::lsmps_impact_params<3>()
+    // it runs to 7 √(H/g) within the bounds (ramps 0.15, 0.3, 0.5 s; harness only, 56 s to 3 √(H/g): not
+    // in CI).
     // With the copies as Neumann points (copy_row = neumann_points, docs/lsmps_scheme.md deviation 11; opt-in)
     // it runs to the end. Measured (2026-11-28; 34 s wall, two threads; to 7 √(H/g)): 384 -> 949 particles (583 splits,
     // 18 merges), max |u| 0.19 √(gH) during the ramp and 2.2e-2 at the end, min r_ij/L_ij 0.398, c ≤ 1.54, guard 0.
