@@ -684,7 +684,9 @@ TEST_SUITE("poiseuille_multires") {
   }
 }
 
-TEST_SUITE("poiseuille_multires") {
+TEST_SUITE("graded_start") {
+  // Label graded_start (poiseuille_multires until 2026-12-06): resolution::graded_lattice is ours, not one of issue
+  // #9's cases, so it runs under its own label and issue #9's CI budget counts the issue's cases.
   TEST_CASE("channel: periodic Poiseuille 2:1 from a graded start: the split start's particles, no event, the series") {
     // The periodic 2:1 channel above started from resolution::graded_lattice (poiseuille_config::graded_start)
     // instead of splitting the 0.5 mm lattice in its first steps. Two independent paths to the same layout: the

@@ -1715,7 +1715,7 @@ TEST_SUITE("multires_hard") {
     }
   }
 
-  TEST_CASE("multires_hard: size ratio 5 at the right wall, the floor corner and the free surface, 10 sqrt(H/g)") {
+  TEST_CASE("multires_hard: size ratio 5 at the right wall, the floor corner and the free surface, 8 sqrt(H/g)") {
     // The box of the case above with L* = L/5 within 20 mm of the right wall (ramp to 1.05 L at 80 mm), the ratio
     // ramped in over 0.5 s; five generations, L_min = L/√32 (ratio 5.7). With the default wall options it fails
     // (docs/resolution.md "Hard cases": 4.6 √(H/g); with collisions, max |u| 8.3 √(gH) at T ≈ 4 and a blow-up).
@@ -1725,10 +1725,13 @@ TEST_SUITE("multires_hard") {
     // holds the pairs apart. Measured (2026-12-03): max |u| 0.80 √(gH), min r_ij/L_ij 0.494 as sampled here (0.474
     // measured after every step), max c 1.40, guard 0, 845 splits. Ratio 4 with the same options once reached 6.8 √(gH)
     // (a single splash at T ≈ 6.3) and ratios 4.5 / 5.5 passed: the bounds hold run by run, not by construction.
+    // To 8 √(H/g) since 2026-12-06 (10 before; issue #9's CI budget): 1011 particles at the end, 821 splits / 10
+    // merges, max |u| 0.80 √(gH), min r_ij/L_ij 0.494, max c 1.40, guard 0, 7807 colliding pairs (measured); the
+    // extremes as to 10.
     const cases::polygon_tank_config tc = box_tank(0.2, 0.1, 0.2);
     const double L = tc.L;
     const auto o = run_hard_tank(
-        tc, 10.0,
+        tc, 8.0,
         [L](const vec<2>& x, double t) {
           const double Lf = L / (1.0 + 4.0 * std::min(t / 0.5, 1.0));
           const double f = std::clamp((0.2 - x[0] - 0.02) / 0.06, 0.0, 1.0);
@@ -1744,7 +1747,7 @@ TEST_SUITE("multires_hard") {
     check_issue_bounds(o);  // measured 0.80 √(gH), 0.494, 1.40, guard 0
     CHECK(o.Lmin <= 0.18 * L);  // the ratio was reached: L/5.66
     CHECK(o.surface_splits > 0);
-    CHECK(o.collisions > 0);  // the stage acted (measured 8871 colliding directed pairs)
+    CHECK(o.collisions > 0);  // the stage acted (measured 8871 colliding directed pairs to 10 √(H/g), 7807 to 8)
   }
 
   TEST_CASE("multires_hard: 3D, splitting at a wall and along the floor edge, 3 sqrt(H/g)") {

@@ -394,7 +394,7 @@ struct lsmps_params {
 /// at rest spread; the other settings were not measured on the channels, tanks and vortex, which were validated
 /// without them (each deviation's "why not the default" in docs/lsmps_scheme.md). In a 3D slab of the dam break
 /// (periodic at 10 mm, between end walls at 10–5 mm) it reaches the far wall where Table 2 blows up at T ≈ 0.8–1.2
-/// (docs/lsmps_scheme.md "The impact configuration"; label dam_break_lsmps).
+/// (docs/lsmps_scheme.md "The impact configuration"; label dam_break_slab).
 template <int D>
 lsmps_params<D> lsmps_impact_params(lsmps_params<D> p = {}) {
   p.copy_two_point = 1.0;
