@@ -17,7 +17,7 @@ cmake -S . -B build/sanitize -DCMAKE_BUILD_TYPE=Debug \
       -DMPSKIT_WERROR=ON -DMPSKIT_BUILD_EXAMPLES=OFF >/dev/null
 cmake --build build/sanitize -j "$jobs"
 cd build/sanitize
-heavy='^(hydrostatic|hydrostatic_polygon|dam_break_lsmps|multires_hard|taylor_green_multires|dam_break_multires|poiseuille|poiseuille_multires|multi_diameter_channel|multi_diameter_channel_multires|projection_stability|consumer)$'
+heavy='^(hydrostatic|hydrostatic_polygon|dam_break_lsmps|dam_break_slab|multires_hard|taylor_green_multires|dam_break_multires|poiseuille|poiseuille_multires|graded_start|multi_diameter_channel|multi_diameter_channel_multires|projection_stability|consumer)$'
 if [ $# -eq 0 ]; then set -- -LE "$heavy"; fi
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}

@@ -1428,7 +1428,7 @@ TEST_SUITE("dam_break_lsmps") {
 TEST_SUITE("dam_break_slab") {
   // Tanaka's dam break as a 3D slab (cases/tanaka_dam_break_slab.hpp). Not one of issue #7's cases (its dam break is
   // 2D): its own label since 2026-12-06, so that issue #7's CI budget counts the issue's cases (the slab run is
-  // ≈ 80 s of CI; docs/validation.md "CI sizes").
+  // ≈ 77 s of one core; docs/resolution.md "CI sizes").
   TEST_CASE("Tanaka's dam break in 3D (a slab periodic in y), L = 12.5 mm, scheme::lsmps_impact_params<3>: to the far wall") {
     // cases/tanaka_dam_break_slab.hpp: the 2D vessel extruded along y over 8 L, periodic (the period must exceed
     // twice the search radius, 7.44 L), so the flow is plane and its front should be the 2D run's up to the
@@ -1471,7 +1471,7 @@ TEST_SUITE("dam_break_slab") {
       ++compared;
     }
     const double sqrt_gH = std::sqrt(c.g * c.column_height);
-    std::printf("dam_break_lsmps 3D slab (periodic, 8 layers) L = 12.5 mm to T = 3.3: %ld particles, %ld steps, front "
+    std::printf("dam_break_slab 3D slab (periodic, 8 layers) L = 12.5 mm to T = 3.3: %ld particles, %ld steps, front "
                 "in band %d/%d, body at the far wall at %d of %d samples from T = 3.2, min fluid p %.0f Pa, guarded "
                 "%ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f, collisions %ld, against 2D to T = 2.5: %.2f %% "
                 "(%d samples)\n",

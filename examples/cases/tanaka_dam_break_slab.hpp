@@ -4,7 +4,7 @@
 // [0, B], B = layers × L; the column 100 × B × 200 mm against the left wall x = 0. The walls are the polygons of
 // cases/polygon_tank.hpp (vertical left wall, open top unless closed_top). Along y the slab is periodic (the
 // default: the flow is plane, so its front is the 2D run's up to the discretisation; the test of
-// scheme::lsmps_impact_params<3> in label dam_break_lsmps compares the two) or closed by two end walls (no-slip
+// scheme::lsmps_impact_params<3> in label dam_break_slab compares the two) or closed by two end walls (no-slip
 // walls, as every wall of the scheme: their copies carry the wall's velocity, and the one-sided-band filter drags
 // the layers beside them far more than ν would; docs/lsmps_scheme.md "The impact configuration"). A periodic slab
 // needs a period above twice the search radius (7.44 L with the defaults: 8 layers). The front
