@@ -319,13 +319,20 @@ int main(int argc, char** argv) {
                   walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback),
                   trace ? trace_speed : -1.0);
     const std::string options = options_text;
+    // The output's state (section "example.output"): the next frame's time, the picture's T, the last PPE count,
+    // the traces written, the ParaView files written and the last one's time, the trace file's length (flushed per
+    // trace; -1 without --trace). The last three are read into these places and checked against the files.
+    double files_saved = 0.0, last_file_time = 0.0, trace_bytes = -1.0;
+    cases::measure_list output;
+    output(next_vtk)(T_snap)(last_it)(traced)
+        .add([&] { return double(vtk.pvd().entries().size()); }, [&](double x) { files_saved = x; })
+        .add([&] { return vtk.pvd().entries().empty() ? 0.0 : vtk.pvd().entries().back().time; },
+             [&](double x) { last_file_time = x; })
+        .add([&] { return trace ? double(file_bytes(trace_path)) : -1.0; }, [&](double x) { trace_bytes = x; });
     pieces.save_extra = [&](io::checkpoint_sections& s) {
       s.add_bytes("example.options", options);
       s.add_int64s("example.counters", counters.values());
-      const auto& written = vtk.pvd().entries();
-      s.add_doubles("example.output", {next_vtk, T_snap, double(last_it), double(traced), double(written.size()),
-                                       written.empty() ? 0.0 : written.back().time,
-                                       trace ? double(file_bytes(trace_path)) : -1.0});  // flushed per trace
+      output.save(s, "example.output");
       cases::add_columns(s, "example.obstacle_probe", {&obstacle_t, &obstacle_p});
     };
     pieces.load_extra = [&](const io::checkpoint_sections& s, const cases::tanaka_dam_break_result& so_far) {
@@ -334,15 +341,9 @@ int main(int argc, char** argv) {
         fail("tanaka_dam_break: '", file, "' was written with ", s.get_bytes("example.options"), "; this run has ", options,
              " (resume with the same options)");
       counters.from_values(s.get_int64s("example.counters"));
-      const std::vector<double> o = s.get_doubles("example.output");
-      if (o.size() != 7)
-        fail("tanaka_dam_break: '", file, "': section 'example.output' holds ", o.size(), " values (expected 7)");
+      output.load(s, "example.output", "tanaka_dam_break", file);
       cases::get_columns(s, "example.obstacle_probe", {&obstacle_t, &obstacle_p}, "tanaka_dam_break", file);
-      next_vtk = o[0];
-      T_snap = o[1];
-      last_it = static_cast<long>(o[2]);
-      traced = static_cast<int>(o[3]);
-      const auto files = static_cast<std::size_t>(o[4]);
+      const auto files = static_cast<std::size_t>(files_saved);
       wall_before = so_far.wall_seconds_before;
       const fs::path pvd = fs::path(out) / "tanaka_dam_break.pvd";
       std::vector<io::pvd_entry> entries;
@@ -352,8 +353,8 @@ int main(int argc, char** argv) {
           fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, and '", pvd.string(),
                "' does not exist (resume with the --out of the run that wrote it)");
         entries = io::read_pvd(pvd);
-        if (entries.size() < files || entries[files - 1].time != o[5])
-          fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, the last at t = ", o[5],
+        if (entries.size() < files || entries[files - 1].time != last_file_time)
+          fail("tanaka_dam_break: '", file, "' was written after ", files, " ParaView files, the last at t = ", last_file_time,
                " s; '", pvd.string(), "' lists ", entries.size(),
                entries.size() < files ? "" : mpskit::detail::concat(", its file ", files, " at t = ", entries[files - 1].time, " s"),
                " (resume with the --out of the run that wrote it)");
@@ -362,7 +363,7 @@ int main(int argc, char** argv) {
       vtk = io::vtk_series(fs::path(out) / "tanaka_dam_break", {}, std::move(entries));
       if (trace) {  // the trace file as it was at the checkpoint (not traced then: from the start)
         trace_out.close();
-        const auto bytes = static_cast<std::uintmax_t>(std::max(0.0, o[6]));
+        const auto bytes = static_cast<std::uintmax_t>(std::max(0.0, trace_bytes));
         std::error_code ec;
         if (fs::exists(trace_path, ec) && file_bytes(trace_path) > bytes) {
           fs::resize_file(trace_path, bytes, ec);

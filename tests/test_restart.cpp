@@ -5,6 +5,7 @@
 #include "support/support.hpp"
 
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <cstddef>
@@ -16,6 +17,7 @@
 #endif
 
 #include "cases/dam_break.hpp"
+#include "cases/run_pieces.hpp"
 #include "mpskit/io/simulation_checkpoint.hpp"
 #include "mpskit/ppe/fallback.hpp"
 #include "mpskit/ppe/sparse_lu.hpp"
@@ -205,5 +207,70 @@ TEST_SUITE("restart") {
     CHECK_THROWS_WITH_AS(io::load_simulation(write("12.mpscp", 12), f), doctest::Contains("holds 12 values, expected 11"),
                          mpskit::error);
     CHECK(f.counters().steps == 0);  // untouched
+  }
+
+  TEST_CASE("restart: the runners' measure lists and sample columns round-trip bitwise; bad lists are refused") {
+    // cases/run_pieces.hpp: what tanaka_dam_break_run.hpp, multi_diameter_channel.hpp and the tanaka_dam_break
+    // example save beside the simulation. The values are chosen not to survive a float or a rounding.
+    double d = 0.1, wall = 1.0 / 3.0;
+    long i = -(1L << 53);          // the most negative integer a double holds exactly
+    std::size_t n = std::size_t{1} << 53;
+    int k = 7;
+    bool b = true;
+    cases::measure_list m;
+    m(d)(i)(n)(k)(b).add([&] { return wall; }, [&](double w) { wall = w; });
+    CHECK(m.size() == 6);
+    io::checkpoint_sections s;
+    m.save(s, "x.measures");
+    const std::vector<double> T{0.0, 0.25, 0.5}, Z{1.0, 1.1, 1.3}, Zb{1.0, 1.05, std::nan("")};
+    cases::add_columns(s, "x.front", {&T, &Z, &Zb});
+    const double d0 = d, w0 = wall;
+    d = wall = 0.0;
+    i = 0;
+    n = 0;
+    k = 0;
+    b = false;
+    m.load(s, "x.measures", "test", "memory");
+    CHECK(same_bits(d, d0));
+    CHECK(same_bits(wall, w0));
+    CHECK(i == -(1L << 53));
+    CHECK(n == std::size_t{1} << 53);
+    CHECK(k == 7);
+    CHECK(b);
+    std::vector<double> t2{9.0}, z2, zb2{1.0, 2.0, 3.0, 4.0};  // old contents are replaced, not appended to
+    cases::get_columns(s, "x.front", {&t2, &z2, &zb2}, "test", "memory");
+    CHECK(t2 == T);
+    CHECK(z2 == Z);
+    REQUIRE(zb2.size() == 3);
+    CHECK(zb2[1] == 1.05);
+    CHECK(std::isnan(zb2[2]));
+    // Offsets (the multi-diameter channel's three configuration values come first).
+    std::vector<double> v{5.0, 6.0};
+    const std::vector<double> mv = m.values();
+    v.insert(v.end(), mv.begin(), mv.end());
+    d = 0.0;
+    m.assign(v, 2);
+    CHECK(d == 0.1);
+    CHECK_THROWS_WITH_AS(m.assign(v, 1), doctest::Contains("8 values for 1 + 6 places"), mpskit::error);
+    // Refused: a section of another length, an integer a double would round, no columns, unequal columns, and a
+    // section that the reader's columns do not divide.
+    io::checkpoint_sections t;
+    t.add_doubles("x.measures", {1.0, 2.0});
+    CHECK_THROWS_WITH_AS(m.load(t, "x.measures", "test", "f.cp"),
+                         doctest::Contains("test: 'f.cp': section 'x.measures' holds 2 values, expected 6"),
+                         mpskit::error);
+    i = -(1L << 53) - 1;
+    CHECK_THROWS_WITH_AS(m.save(t, "y"), doctest::Contains("beyond 2^53"), mpskit::error);
+    i = 0;
+    n = (std::size_t{1} << 53) + 1;
+    CHECK_THROWS_WITH_AS(m.values(), doctest::Contains("beyond 2^53"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::add_columns(t, "z", {}), doctest::Contains("no columns"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::add_columns(t, "z", {&T, &v}), doctest::Contains("columns of 3 and 8 values"),
+                         mpskit::error);
+    CHECK_FALSE(t.contains("z"));
+    CHECK_THROWS_WITH_AS(cases::get_columns(s, "x.front", {}, "test", "f.cp"), doctest::Contains("no columns to read"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::get_columns(s, "x.front", {&t2, &z2}, "test", "f.cp"),
+                         doctest::Contains("section 'x.front' holds 9 values, not a multiple of 2"), mpskit::error);
   }
 }

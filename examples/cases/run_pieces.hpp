@@ -6,9 +6,12 @@
 #include <cmath>
 #include <concepts>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <initializer_list>
+#include <limits>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -72,7 +75,8 @@ class piece_clock {
 };
 
 /// A run's scalar measurements as one ordered list of places, written to a checkpoint section and read back in the
-/// same order (so the order is stated once). Integers and flags are stored as doubles (exact below 2^53).
+/// same order (so the order is stated once). Integers and flags are stored as doubles: an integer beyond 2^53 in
+/// magnitude, which a double would round, is refused when written, not stored rounded.
 class measure_list {
  public:
   measure_list& operator()(double& v) {
@@ -83,7 +87,20 @@ class measure_list {
     if constexpr (std::same_as<I, bool>)
       return add([&v] { return v ? 1.0 : 0.0; }, [&v](double x) { v = x != 0.0; });
     else
-      return add([&v] { return static_cast<double>(v); }, [&v](double x) { v = static_cast<I>(x); });
+      return add(
+          [&v] {
+            if constexpr (std::numeric_limits<I>::digits > 53) {  // |v| <= 2^53, tested without overflow
+              constexpr auto exact = std::uint64_t{1} << 53;
+              bool fits = true;
+              if constexpr (std::is_signed_v<I>)
+                fits = v >= 0 ? static_cast<std::uint64_t>(v) <= exact : static_cast<std::uint64_t>(-(v + 1)) < exact;
+              else
+                fits = static_cast<std::uint64_t>(v) <= exact;
+              if (!fits) fail("measure_list: the integer ", v, " is beyond 2^53 and would be rounded as a double");
+            }
+            return static_cast<double>(v);
+          },
+          [&v](double x) { v = static_cast<I>(x); });
   }
   /// A value written and read through functions (e.g. the wall time: the earlier pieces' plus this piece's so far).
   measure_list& add(std::function<double()> get, std::function<void(double)> set) {
@@ -97,9 +114,20 @@ class measure_list {
     for (const auto& p : places_) v.push_back(p.first());
     return v;
   }
-  /// Reads `size()` values from m[offset] on (the caller has checked m's length).
+  /// Reads `size()` values from m[offset] on (refused unless m holds exactly offset + size() values).
   void assign(const std::vector<double>& m, std::size_t offset = 0) const {
+    if (m.size() != offset + places_.size())
+      fail("measure_list: ", m.size(), " values for ", offset, " + ", places_.size(), " places");
     for (std::size_t k = 0; k < places_.size(); ++k) places_[k].second(m[offset + k]);
+  }
+  /// Writes the values as section `name`.
+  void save(io::checkpoint_sections& s, std::string name) const { s.add_doubles(std::move(name), values()); }
+  /// Reads section `name` (refused, naming `who` and `file`, unless it holds exactly `size()` values).
+  void load(const io::checkpoint_sections& s, const std::string& name, const char* who, const std::string& file) const {
+    const std::vector<double> m = s.get_doubles(name);
+    if (m.size() != places_.size())
+      fail(who, ": '", file, "': section '", name, "' holds ", m.size(), " values, expected ", places_.size());
+    assign(m);
   }
 
  private:

@@ -319,11 +319,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       if (std::bit_cast<std::uint64_t>(cv[k]) != std::bit_cast<std::uint64_t>(want[k]))
         fail("run_tanaka_dam_break: '", file, "' was written with ", detail::tanaka_config_names[k], " = ", cv[k],
              "; this run has ", want[k], " (resume with the file's configuration)");
-    const std::vector<double> m = sec.get_doubles("tanaka_dam_break.measures");
-    if (m.size() != measures.size())
-      fail("run_tanaka_dam_break: '", file, "': section 'tanaka_dam_break.measures' holds ", m.size(),
-           " values, expected ", measures.size());
-    measures.assign(m);
+    measures.load(sec, "tanaka_dam_break.measures", "run_tanaka_dam_break", file);
     get_columns(sec, "tanaka_dam_break.front", {&r.T, &r.Z, &r.Z_body}, "run_tanaka_dam_break", file);
     get_columns(sec, "tanaka_dam_break.probe", {&r.probe_t, &r.probe_p}, "run_tanaka_dam_break", file);
     r.resumed_at = db.t_star(sim.time());
@@ -341,7 +337,7 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       if (n.rfind("tanaka_dam_break.", 0) == 0)
         fail("run_tanaka_dam_break: the caller's section name '", n, "' is reserved");
     sec.add_doubles("tanaka_dam_break.config", detail::tanaka_config_values(c));
-    sec.add_doubles("tanaka_dam_break.measures", measures.values());
+    measures.save(sec, "tanaka_dam_break.measures");
     add_columns(sec, "tanaka_dam_break.front", {&r.T, &r.Z, &r.Z_body});
     add_columns(sec, "tanaka_dam_break.probe", {&r.probe_t, &r.probe_p});
     io::save_simulation(pieces.checkpoint, sim, std::move(sec));
