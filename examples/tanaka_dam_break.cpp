@@ -321,7 +321,8 @@ int main(int argc, char** argv) {
     const std::string options = options_text;
     // The output's state (section "example.output"): the next frame's time, the picture's T, the last PPE count,
     // the traces written, the ParaView files written and the last one's time, the trace file's length (flushed per
-    // trace; -1 without --trace). The last three are read into these places and checked against the files.
+    // trace; -1 without --trace). The last three are read into these places: the series' length and last time are
+    // checked against the .pvd file, and the trace file is cut back to its length.
     double files_saved = 0.0, last_file_time = 0.0, trace_bytes = -1.0;
     cases::measure_list output;
     output(next_vtk)(T_snap)(last_it)(traced)

@@ -213,7 +213,7 @@ TEST_SUITE("restart") {
     // cases/run_pieces.hpp: what tanaka_dam_break_run.hpp, multi_diameter_channel.hpp and the tanaka_dam_break
     // example save beside the simulation. The values are chosen not to survive a float or a rounding.
     double d = 0.1, wall = 1.0 / 3.0;
-    long i = -(1L << 53);          // the most negative integer a double holds exactly
+    std::int64_t i = -(std::int64_t{1} << 53);  // the most negative integer the list accepts
     std::size_t n = std::size_t{1} << 53;
     int k = 7;
     bool b = true;
@@ -233,7 +233,7 @@ TEST_SUITE("restart") {
     m.load(s, "x.measures", "test", "memory");
     CHECK(same_bits(d, d0));
     CHECK(same_bits(wall, w0));
-    CHECK(i == -(1L << 53));
+    CHECK(i == -(std::int64_t{1} << 53));
     CHECK(n == std::size_t{1} << 53);
     CHECK(k == 7);
     CHECK(b);
@@ -259,11 +259,30 @@ TEST_SUITE("restart") {
     CHECK_THROWS_WITH_AS(m.load(t, "x.measures", "test", "f.cp"),
                          doctest::Contains("test: 'f.cp': section 'x.measures' holds 2 values, expected 6"),
                          mpskit::error);
-    i = -(1L << 53) - 1;
+    i = -(std::int64_t{1} << 53) - 1;
     CHECK_THROWS_WITH_AS(m.save(t, "y"), doctest::Contains("beyond 2^53"), mpskit::error);
+    i = (std::int64_t{1} << 53) + 1;
+    CHECK_THROWS_WITH_AS(m.save(t, "y"), doctest::Contains("beyond 2^53"), mpskit::error);
+    i = std::int64_t{1} << 53;
+    CHECK_NOTHROW(m.save(t, "y"));
     i = 0;
     n = (std::size_t{1} << 53) + 1;
     CHECK_THROWS_WITH_AS(m.values(), doctest::Contains("beyond 2^53"), mpskit::error);
+    // Read back: a value that is not a whole number in the integer's range, or a flag other than 0 or 1.
+    std::vector<double> bad = mv;
+    bad[1] = 0.5;
+    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("0.5 read for an integer of 63 bits"), mpskit::error);
+    bad[1] = mv[1];
+    bad[2] = -1.0;
+    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("read for an integer of 64 bits"), mpskit::error);
+    bad[2] = std::ldexp(1.0, 64);
+    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("read for an integer of 64 bits"), mpskit::error);
+    bad[2] = mv[2];
+    bad[3] = std::nan("");
+    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("read for an integer of 31 bits"), mpskit::error);
+    bad[3] = mv[3];
+    bad[4] = 2.0;
+    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("read for a flag"), mpskit::error);
     CHECK_THROWS_WITH_AS(cases::add_columns(t, "z", {}), doctest::Contains("no columns"), mpskit::error);
     CHECK_THROWS_WITH_AS(cases::add_columns(t, "z", {&T, &v}), doctest::Contains("columns of 3 and 8 values"),
                          mpskit::error);

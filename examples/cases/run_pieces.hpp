@@ -84,8 +84,13 @@ class measure_list {
   }
   template <std::integral I>
   measure_list& operator()(I& v) {
+    static_assert(std::numeric_limits<I>::digits <= 64, "measure_list: integers of at most 64 bits");
     if constexpr (std::same_as<I, bool>)
-      return add([&v] { return v ? 1.0 : 0.0; }, [&v](double x) { v = x != 0.0; });
+      return add([&v] { return v ? 1.0 : 0.0; },
+                 [&v](double x) {
+                   if (x != 0.0 && x != 1.0) fail("measure_list: ", x, " read for a flag (0 or 1 expected)");
+                   v = x != 0.0;
+                 });
     else
       return add(
           [&v] {
@@ -100,7 +105,13 @@ class measure_list {
             }
             return static_cast<double>(v);
           },
-          [&v](double x) { v = static_cast<I>(x); });
+          [&v](double x) {  // a whole number inside I's range, or refused (a cast would be undefined)
+            constexpr int digits = std::numeric_limits<I>::digits;
+            const double hi = std::ldexp(1.0, digits), lo = std::is_signed_v<I> ? -hi : 0.0;
+            if (!(std::isfinite(x) && x == std::trunc(x) && x >= lo && x < hi))
+              fail("measure_list: ", x, " read for an integer of ", digits, " bits");
+            v = static_cast<I>(x);
+          });
   }
   /// A value written and read through functions (e.g. the wall time: the earlier pieces' plus this piece's so far).
   measure_list& add(std::function<double()> get, std::function<void(double)> set) {
