@@ -815,7 +815,8 @@ TEST_SUITE("poiseuille_multires") {
     // opt-in, docs/lsmps_scheme.md deviation 7), since 2026-12-06 for issue #9's CI budget: 54.7 -> 49.0 s (one
     // thread, measured in one session; 53.2 -> 46.8 s with two). Every solve still reaches the tolerance on the
     // current matrix: the printed error, counts and ledger are those of the default reuse (4, not across) to the
-    // last digit (measured). BiCGSTAB with Jacobi does not converge here (step 29: 5e-7 after 2000 iterations).
+    // last digit (measured). BiCGSTAB with Jacobi does not converge here (step 29: 5e-7 after 2000 iterations, and
+    // again after the cold restart from 0).
     c.params.solver.ilut_reuse = 16;
     c.params.solver.ilut_reuse_across_changes = true;
     const auto r = cases::run_duct_impl<cases::duct_pressure_multires_scene>(c);
