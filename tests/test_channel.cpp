@@ -811,14 +811,6 @@ TEST_SUITE("poiseuille_multires") {
     const double L = c.L;
     c.t_end = 0.02;
     cases::refine_duct_walls(c);
-    // ILUT factors kept for up to 16 solves and across changes of the unknowns (copies made or dropped, outflow;
-    // opt-in, docs/lsmps_scheme.md deviation 7), since 2026-12-06 for issue #9's CI budget: 54.7 -> 49.0 s (one
-    // thread, measured in one session; 53.2 -> 46.8 s with two). Every solve still reaches the tolerance on the
-    // current matrix: the printed error, counts and ledger are those of the default reuse (4, not across) to the
-    // last digit (measured). BiCGSTAB with Jacobi does not converge here (step 29: 5e-7 after 2000 iterations, and
-    // again after the cold restart from 0).
-    c.params.solver.ilut_reuse = 16;
-    c.params.solver.ilut_reuse_across_changes = true;
     const auto r = cases::run_duct_impl<cases::duct_pressure_multires_scene>(c);
     std::printf("3D pressure duct multires: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles "
                 "%ld -> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, ledger %.1e, guarded %ld, |u|max %.4f m/s, %.1f s\n",
