@@ -1,8 +1,8 @@
 #pragma once
 /// \file ppe/eigen_iterative.hpp
-/// \brief Eigen's iterative solvers behind one API: CG (Jacobi or incomplete Cholesky), BiCGSTAB,
-/// GMRES and IDR(s) from the unsupported module. Each solve starts from the given x (warm start) and
-/// reports iterations and relative residual; non-convergence is returned, not hidden.
+/// \brief Eigen's iterative solvers behind one API: CG (Jacobi or incomplete Cholesky), BiCGSTAB (Jacobi, ILUT or
+/// our ILU(0), ppe/ilu0.hpp), GMRES and IDR(s) from the unsupported module. Each solve starts from the given x
+/// (warm start) and reports iterations and relative residual; non-convergence is returned, not hidden.
 #include <cmath>
 #include <vector>
 
@@ -13,6 +13,7 @@
 #include "mpskit/core/exec.hpp"
 #include "mpskit/core/params.hpp"
 #include "mpskit/ppe/concepts.hpp"
+#include "mpskit/ppe/ilu0.hpp"
 
 namespace mpskit::ppe {
 
@@ -27,8 +28,9 @@ struct solver_params {
   /// exact LU: on the LSMPS PPE (≈ 30 entries per row) the factorisation took 81 % of a Taylor–Green step.
   double ilut_drop_tolerance = 1e-4;
   int ilut_fill_factor = 2;
-  /// Incomplete LU (BiCGSTAB, GMRES) kept for up to this many solves when the caller says the unknowns are the
-  /// same particles in the same order as at the factorisation (1: factorised at every solve). The solve still
+  /// Incomplete LU (ILUT of bicgstab and gmres, ILU(0) of bicgstab_ilu0) kept for up to this many solves when the
+  /// caller says the unknowns are the same particles in the same order as at the factorisation (1: factorised at
+  /// every solve). The solve still
   /// runs to `tolerance` on the current matrix, so a lagged factorisation changes iterations, not what is
   /// accepted; a lagged solve that fails is repeated once with a fresh factorisation. Ours (a standard
   /// lagged-preconditioner device, not in the papers); docs/lsmps_scheme.md (deviation 7) has the measured trade.
@@ -124,8 +126,16 @@ class lagged_preconditioner {
     factor_rows_ = factor_rows;
   }
   Eigen::ComputationInfo info() const { return p_.info(); }
-  void setDroptol(double d) { p_.setDroptol(d); }
-  void setFillfactor(int f) { p_.setFillfactor(f); }
+  void setDroptol(double d)
+    requires requires(P& q) { q.setDroptol(1.0); }
+  {
+    p_.setDroptol(d);
+  }
+  void setFillfactor(int f)
+    requires requires(P& q) { q.setFillfactor(1); }
+  {
+    p_.setFillfactor(f);
+  }
   void refactor(bool on) { refactor_ = on; }  ///< whether the next compute factorises
   bool refactoring() const { return refactor_; }
 
@@ -347,6 +357,9 @@ using cg_ichol = detail::eigen_iterative<
 using bicgstab = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// BiCGSTAB with Jacobi preconditioning (any non-singular system; no factorisation cost).
 using bicgstab_jacobi = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, Eigen::DiagonalPreconditioner<double>>, false>;
+/// BiCGSTAB with ILU(0) (ppe/ilu0.hpp: no fill, factorised at every solve; any non-singular system whose
+/// elimination on A's pattern meets no zero pivot).
+using bicgstab_ilu0 = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<incomplete_lu0>>, false>;
 /// Restarted GMRES with incomplete LU (restart set from solver_params::restart).
 using gmres = detail::eigen_iterative<Eigen::GMRES<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// IDR(s) with Jacobi preconditioning (s from solver_params::idrs_s).
