@@ -464,14 +464,18 @@ TEST_SUITE("solver") {
     // Saad 2003 §10.3.2: ILU(0) (Algorithm 10.4) gives L (unit lower) and U on A's pattern with (LU)_ij = a_ij
     // at every stored (i, j); off the pattern LU has the dropped fill. Checked on the non-symmetric
     // convection-diffusion matrix (the fill of the 5-point stencil is at distance g − 1, dropped: LU ≠ A there),
-    // the bound 1e-13 max|a| being rounding of ≤ 5 products per entry. A tridiagonal matrix has no fill: ILU(0) is
-    // its LU, so M⁻¹ b is A⁻¹ b to rounding and BiCGSTAB stops after one iteration.
+    // the bound 1e-13 max|a| (max|a| = 5) being ≈ 100 × the rounding of the few products in each entry. A
+    // tridiagonal matrix has no fill: ILU(0) is its LU, so M⁻¹ b is A⁻¹ b to rounding and BiCGSTAB stops after one
+    // iteration.
     const int g = 20, n = g * g;
     const ppe::matrix A = convection_diffusion(g);
     ppe::incomplete_lu0 ilu(A);
     REQUIRE(ilu.info() == Eigen::Success);
     const ppe::matrix& F = ilu.factors();
-    CHECK(F.nonZeros() == A.nonZeros());  // no fill
+    // no fill: the factors' pattern is A's, entry for entry
+    REQUIRE(F.nonZeros() == A.nonZeros());
+    CHECK(std::equal(F.outerIndexPtr(), F.outerIndexPtr() + n + 1, A.outerIndexPtr()));
+    CHECK(std::equal(F.innerIndexPtr(), F.innerIndexPtr() + A.nonZeros(), A.innerIndexPtr()));
     Eigen::MatrixXd Lf = Eigen::MatrixXd::Identity(n, n), Uf = Eigen::MatrixXd::Zero(n, n);
     for (Eigen::Index i = 0; i < n; ++i)
       for (ppe::matrix::InnerIterator it(F, i); it; ++it) (it.col() < i ? Lf : Uf)(i, it.col()) = it.value();

@@ -23,9 +23,10 @@ struct solver_params {
   long max_iterations = 2000;  ///< iteration cap (non-convergence is an error of the scheme)
   long restart = 50;         ///< GMRES restart length (set explicitly; Eigen's default is 30)
   long idrs_s = 4;           ///< IDR(s) shadow-space dimension
-  /// Incomplete LU (BiCGSTAB, GMRES): entries below ilut_drop_tolerance × the row norm are dropped and each
-  /// row keeps at most ilut_fill_factor × its original count. Eigen's defaults (1e-12, 10) make ILUT a near
-  /// exact LU: on the LSMPS PPE (≈ 30 entries per row) the factorisation took 81 % of a Taylor–Green step.
+  /// ILUT (bicgstab, gmres; bicgstab_ilu0 has no fill and ignores both): entries below ilut_drop_tolerance × the
+  /// row norm are dropped and each row keeps at most ilut_fill_factor × its original count. Eigen's defaults
+  /// (1e-12, 10) make ILUT a near exact LU: on the LSMPS PPE (≈ 30 entries per row) the factorisation took 81 %
+  /// of a Taylor–Green step.
   double ilut_drop_tolerance = 1e-4;
   int ilut_fill_factor = 2;
   /// Incomplete LU (ILUT of bicgstab and gmres, ILU(0) of bicgstab_ilu0) kept for up to this many solves when the
@@ -35,7 +36,7 @@ struct solver_params {
   /// accepted; a lagged solve that fails is repeated once with a fresh factorisation. Ours (a standard
   /// lagged-preconditioner device, not in the papers); docs/lsmps_scheme.md (deviation 7) has the measured trade.
   int ilut_reuse = 4;
-  /// Keep the lagged ILUT factors also when the unknowns changed (splits, merges, inflow, outflow, reordering,
+  /// Keep the lagged ILUT or ILU(0) factors also when the unknowns changed (splits, merges, inflow, outflow, reordering,
   /// copies made or dropped), as long as at most `ilut_reuse_unmatched` of the current unknowns have no row in the
   /// factorised system: the preconditioner then scatters the residual to the factorised system's rows (by particle
   /// identity, given by the stepper), applies the kept factors and gathers back, with a Jacobi step on the
@@ -43,13 +44,13 @@ struct solver_params {
   bool ilut_reuse_across_changes = false;
   double ilut_reuse_unmatched = 0.1;  ///< largest fraction of unmatched unknowns for which the factors are kept
   /// A solve whose iterate is not finite (a Krylov breakdown) is restarted once from x = 0 with a fresh budget of
-  /// max_iterations (since 2026-12-06; before, the iterations left), unless it started from 0; on lagged ILUT
+  /// max_iterations (since 2026-12-06; before, the iterations left), unless it started from 0; on lagged
   /// factors only the fresh-factor retry restarts (ours; docs/run.md, "Krylov breakdowns"). Only solves that
   /// would otherwise fail (or, lagged, be retried) are affected.
   bool breakdown_restart = true;
   /// A warm-started solve that does not converge (Eigen::NoConvergence: the iteration cap reached, or a true
   /// residual above 10× the tolerance; not a breakdown, nor IDR(s)'s own breakdown exit) is repeated once from
-  /// x = 0 with a fresh budget of max_iterations; the report gives both attempts' iterations. On lagged ILUT
+  /// x = 0 with a fresh budget of max_iterations; the report gives both attempts' iterations. On lagged
   /// factors only the fresh-factor retry restarts. Ours (docs/run.md, "Cold restarts"): only solves that would
   /// otherwise fail (or, lagged, be retried; with ppe::with_fallback, go to the fallback) are affected. Measured:
   /// the 1 mm dam-break PPE (19 117 unknowns) that BiCGSTAB-Jacobi left at 3.9e-6 after 2000 iterations from the
@@ -160,12 +161,12 @@ class eigen_iterative {
   /// Factorises / analyses A (A must outlive the following solves).
   Eigen::ComputationInfo compute(const matrix& A) { return prepare(A, false); }
   /// As compute(A); when same_unknowns (the rows and columns are the same particles in the same order as at
-  /// the last factorisation) an ILUT preconditioner is kept for up to solver_params::ilut_reuse solves.
+  /// the last factorisation) an ILUT or ILU(0) preconditioner is kept for up to solver_params::ilut_reuse solves.
   Eigen::ComputationInfo compute(const matrix& A, bool same_unknowns) {
     return prepare(A, lagging && same_unknowns && A.rows() == rows_ && since_ + 1 < p_.ilut_reuse && factored_);
   }
   /// As compute(A); `to_previous[r]` is the row of unknown r in the previous system (−1: none). With
-  /// solver_params::ilut_reuse_across_changes the ILUT factors are kept (for up to ilut_reuse solves in all)
+  /// solver_params::ilut_reuse_across_changes the ILUT or ILU(0) factors are kept (for up to ilut_reuse solves in all)
   /// when at most ilut_reuse_unmatched of the unknowns have no row in the factorised system (maps are composed
   /// over the lagged solves); otherwise, and without the option, A is factorised.
   Eigen::ComputationInfo compute(const matrix& A, const std::vector<index_t>& to_previous) {
@@ -221,7 +222,7 @@ class eigen_iterative {
     return r;
   }
   long refactorised_after_failure() const { return relagged_; }  ///< lagged solves repeated with fresh factors
-  long factorisations() const { return factorisations_; }         ///< ILUT factorisations so far
+  long factorisations() const { return factorisations_; }         ///< ILUT or ILU(0) factorisations so far
   long mapped_reuses() const { return mapped_; }  ///< solves with factors kept across a change of the unknowns
   long breakdown_restarts() const { return breakdowns_; }  ///< solves restarted from 0 after a breakdown
   long cold_restarts() const { return colds_; }  ///< warm-started solves repeated from 0 after not converging
@@ -229,7 +230,7 @@ class eigen_iterative {
  private:
   static constexpr bool lagging = requires(EigenSolver& e) { e.preconditioner().refactor(true); };
 
-  /// Sets the solver up for A; keep: the ILUT factors of the last factorisation are kept.
+  /// Sets the solver up for A; keep: the ILUT or ILU(0) factors of the last factorisation are kept.
   Eigen::ComputationInfo prepare(const matrix& A, bool keep) {
     s_.setTolerance(p_.tolerance);
     s_.setMaxIterations(p_.max_iterations);
@@ -357,8 +358,9 @@ using cg_ichol = detail::eigen_iterative<
 using bicgstab = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// BiCGSTAB with Jacobi preconditioning (any non-singular system; no factorisation cost).
 using bicgstab_jacobi = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, Eigen::DiagonalPreconditioner<double>>, false>;
-/// BiCGSTAB with ILU(0) (ppe/ilu0.hpp: no fill, factorised at every solve; any non-singular system whose
-/// elimination on A's pattern meets no zero pivot).
+/// BiCGSTAB with ILU(0) (ppe/ilu0.hpp: no fill; any non-singular system whose elimination on A's pattern meets no
+/// zero pivot: a zero pivot fails compute, where ILUT replaces it). Lagged as ILUT (solver_params::ilut_reuse,
+/// ilut_reuse_across_changes); ilut_drop_tolerance and ilut_fill_factor do not apply.
 using bicgstab_ilu0 = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<incomplete_lu0>>, false>;
 /// Restarted GMRES with incomplete LU (restart set from solver_params::restart).
 using gmres = detail::eigen_iterative<Eigen::GMRES<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
