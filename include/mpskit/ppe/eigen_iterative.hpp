@@ -4,6 +4,7 @@
 /// our ILU(0), ppe/ilu0.hpp), GMRES and IDR(s) from the unsupported module. Each solve starts from the given x
 /// (warm start) and reports iterations and relative residual; non-convergence is returned, not hidden.
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/IterativeLinearSolvers>
@@ -105,8 +106,14 @@ class lagged_preconditioner {
   template <class R>
   const Eigen::VectorXd& solve(const R& b) const {
     if (map_.empty()) {
-      z_ = p_.solve(b);
-      return z_;
+      // A factor solve that returns its own buffer (incomplete_lu0) is passed on; an expression (ILUT) is
+      // evaluated into z_.
+      if constexpr (std::is_lvalue_reference_v<decltype(p_.solve(b))>) {
+        return p_.solve(b);
+      } else {
+        z_ = p_.solve(b);
+        return z_;
+      }
     }
     bf_.setZero(factor_rows_);  // buffers kept between the solver's calls (two per BiCGSTAB iteration)
     for (std::size_t r = 0; r < map_.size(); ++r)
