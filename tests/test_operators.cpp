@@ -13,6 +13,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <random>
+#include <span>
+#include <utility>
 #include <vector>
 
 #include "mpskit/kernel/classic.hpp"
@@ -586,6 +588,90 @@ TEST_SUITE("operators") {
       index_t flagged = 0;
       CHECK(type_b_reproduction_error(B, *x, f, q, h, 1e-9, flagged) < 1.0);
       CHECK(flagged == 0);
+    }
+  }
+
+  TEST_CASE("op: lsmps type B into a reused stencil and workspace: the returning form's numbers, bit for bit") {
+    // The in-place form (regularize::boundary_filter's loop) overwrites every member and reuses the vectors'
+    // capacity: points with large, small (a corner: fewer candidates, lower condition), degenerate (two
+    // candidates: the order-0 fallback, flagged) and again large neighbourhoods, through one stencil and one
+    // workspace, give exactly what a fresh call gives. Fails if a member or the scratch is not reset.
+    std::mt19937_64 rng(test_seed() + 41);
+    MESSAGE("seed " << test_seed() + 41 << " (set MPSKIT_TEST_SEED to replay)");
+    const double h = 0.1;
+    const points<2> x = jittered_lattice<2>(12, h, 0.2, rng);
+    std::vector<index_t> all(static_cast<std::size_t>(x.cols()));
+    for (index_t j = 0; j < x.cols(); ++j) all[static_cast<std::size_t>(j)] = j;
+    const std::vector<index_t> two{0, 1};
+    using query = std::pair<vec<2>, const std::vector<index_t>*>;
+    Eigen::VectorXd L = Eigen::VectorXd::Constant(x.cols(), h);
+    for (index_t j = 0; j < x.cols(); j += 3) L[j] = 1.3 * h;  // mixed sizes: pair radii differ
+    const op::lsmps_b<2, 2> B;
+    op::lsmps_b<2, 2>::point_stencil st;
+    op::lsmps_b<2, 2>::workspace ws;
+    const vec<2> centre = x.rowwise().mean(), corner = x.col(0);
+    int degenerate = 0;
+    for (const auto& [q, cand] : {query{centre, &all}, query{corner, &all}, query{centre, &two},
+                                  query{vec<2>(centre + vec<2>(0.37 * h, -0.21 * h)), &all}}) {
+      const std::span<const index_t> c(*cand);
+      const auto ref = B.stencil(x, q, 1.1 * h, c, op::per_particle_size{&L});
+      B.stencil(x, q, 1.1 * h, c, op::per_particle_size{&L}, op::all_neighbours{}, st, ws);
+      CHECK(ref.columns == st.columns);
+      CHECK(mpskit::test::same_bits(ref.weights, st.weights));
+      CHECK(ref.order_used == st.order_used);
+      CHECK(ref.flags == st.flags);
+      CHECK(mpskit::test::same_bits(ref.condition, st.condition));
+      CHECK(mpskit::test::same_bits(vec<2>(ref.x), vec<2>(st.x)));
+      CHECK(ref.l == st.l);
+      if (ref.flags & flag::degenerate) ++degenerate;
+    }
+    CHECK(degenerate == 1);  // the two-candidate point fell back (and the next point's flags were cleared)
+  }
+
+  TEST_CASE("op: row_entries::merge sorts by column and sums repeats in call order, short and long rows") {
+    // merge sorts short rows (≤ 64 entries) by insertion and longer ones by std::stable_sort: both must give
+    // the entries sorted by column with repeated columns summed left to right in call order. The values
+    // 1e16, 1, −1e16 make the sum order visible in the bits: (1e16 + 1) − 1e16 = 0 but (1e16 − 1e16) + 1 = 1.
+    std::mt19937_64 rng(test_seed() + 43);
+    MESSAGE("seed " << test_seed() + 43 << " (set MPSKIT_TEST_SEED to replay)");
+    for (const std::size_t len : {std::size_t{0}, std::size_t{1}, std::size_t{12}, std::size_t{64}, std::size_t{65},
+                                  std::size_t{300}}) {
+      CAPTURE(len);
+      const index_t i = 5;
+      op::row_entries row(i);
+      std::vector<std::pair<index_t, double>> calls;
+      std::uniform_int_distribution<index_t> col(0, static_cast<index_t>(len / 3 + 1));
+      const double vals[3] = {1e16, 1.0, -1e16};
+      for (std::size_t k = 0; k < len; ++k) {
+        const index_t j = col(rng);
+        const double a = vals[k % 3] * (1.0 + 0.125 * static_cast<double>(k % 5));
+        calls.emplace_back(j, a);
+        row.add(j, a);
+      }
+      row.merge();
+      // Reference: for each column in ascending order, its values summed in call order.
+      std::vector<std::pair<index_t, double>> expected;
+      double diag = 0.0;
+      for (index_t j = 0; j <= static_cast<index_t>(len / 3 + 1); ++j) {
+        bool seen = false;
+        double sum = 0.0;
+        for (const auto& [cj, a] : calls)
+          if (cj == j) {
+            sum = seen ? sum + a : a;
+            seen = true;
+          }
+        if (!seen) continue;
+        if (j == i)
+          diag = sum;  // a column equal to the row is the diagonal (summed in call order too, from 0)
+        else
+          expected.emplace_back(j, sum);
+      }
+      REQUIRE(row.columns().size() == expected.size());
+      for (std::size_t k = 0; k < expected.size(); ++k) {
+        CHECK(row.columns()[k].first == expected[k].first);
+        CHECK(mpskit::test::same_bits(row.columns()[k].second, expected[k].second));
+      }
+      CHECK(mpskit::test::same_bits(row.diagonal(), diag + 0.0));
     }
   }
 

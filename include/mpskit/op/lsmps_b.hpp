@@ -73,20 +73,43 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_b final {
     return ax + ay + az == 0 ? 0 : 1 + basis::index_of(ax, ay, az);
   }
 
+  /// Scratch of `stencil` (kernel weights and basis vectors of the candidates kept): reused across calls,
+  /// it keeps its capacity, so a loop over points allocates nothing once the largest neighbourhood was seen.
+  struct workspace {
+    std::vector<double> w;
+    std::vector<vector> P;
+  };
+
   /// Fits at point xq with diameter l over `candidates` (their sizes from `size`): weight
   /// w(|x_j − xq|, R_qj) with R_q = re_ratio·l, R_j = re_ratio·L_j and the params' rule; candidates
   /// outside R_qj or rejected by `filter` get no weight.
   template <SizeModel S, class Filter = all_neighbours>
   point_stencil stencil(const points<D>& x, const vec<D>& xq, double l, std::span<const index_t> candidates,
                         const S& size, const Filter& filter = {}) const {
+    point_stencil st;
+    workspace ws;
+    stencil(x, xq, l, candidates, size, filter, st, ws);
+    return st;
+  }
+
+  /// The same fit into `st`, every member overwritten, with the scratch `ws`: `st`'s and `ws`'s vectors keep
+  /// their capacity (no allocation in a loop over points; the same numbers bit for bit as the returning form).
+  template <SizeModel S, class Filter>
+  void stencil(const points<D>& x, const vec<D>& xq, double l, std::span<const index_t> candidates, const S& size,
+               const Filter& filter, point_stencil& st, workspace& ws) const {
     if (!(std::isfinite(l) && l > 0.0))
       fail("lsmps_b: point diameter l = ", l, ": must be a finite number > 0");
-    point_stencil st;
     st.x = xq;
     st.l = l;
+    st.order_used = 0;
+    st.flags = 0;
+    st.condition = 0.0;
+    st.columns.clear();
+    std::vector<double>& w = ws.w;
+    std::vector<vector>& P = ws.P;
+    w.clear();
+    P.clear();
     const double Rq = p_.re_ratio * l, linv = 1.0 / l;
-    std::vector<double> w;
-    std::vector<vector> P;
     for (index_t j : candidates) {
       if (!filter(j)) continue;
       const vec<D> d = x.col(j) - xq;
@@ -124,7 +147,6 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_b final {
     const matrix A = h.asDiagonal() * Minv;
     st.weights.resize(P.size());
     for (std::size_t k = 0; k < P.size(); ++k) st.weights[k] = A * (w[k] * P[k]);
-    return st;
   }
 
  private:
