@@ -117,7 +117,7 @@ boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eige
   // the thread count.
   constexpr index_t block = 256;
   for_each_block(exec, n, block, [&](index_t, index_t lo, index_t hi) {
-    std::vector<index_t> global, local;
+    std::vector<index_t> global, local;  // local: 0, 1, 2, … (the fit's candidates are the first m columns)
     points<D> xl(D, 0);
     Eigen::VectorXd Ll(0);
     typename op::lsmps_b<D, 2>::point_stencil st;
@@ -127,7 +127,6 @@ boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eige
       // Neighbours as displacements from x_i (the fit point is the origin), their own sizes. xl and Ll only
       // grow (Eigen has no capacity): the fit reads the first m columns through `local`.
       global.clear();
-      local.clear();
       nl.for_each_neighbour(x, i, support, [&](index_t j, const vec<D>& xij, double) {
         if (j == i || !participates(j)) return;
         const auto k = static_cast<index_t>(global.size());
@@ -136,13 +135,13 @@ boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eige
           xl.conservativeResize(D, grown);
           Ll.conservativeResize(grown);
         }
-        local.push_back(k);
         global.push_back(j);
         xl.col(k) = xij;
         Ll[k] = L[j];
       });
-      fit.stencil(xl, vec<D>::Zero(), L[i], std::span<const index_t>(local), op::per_particle_size{&Ll},
-                  op::all_neighbours{}, st, ws);
+      while (local.size() < global.size()) local.push_back(static_cast<index_t>(local.size()));
+      fit.stencil(xl, vec<D>::Zero(), L[i], std::span<const index_t>(local.data(), global.size()),
+                  op::per_particle_size{&Ll}, op::all_neighbours{}, st, ws);
       if (st.order_used < 2) continue;
       vec<D> uhat = vec<D>::Zero();
       for (std::size_t k = 0; k < st.columns.size(); ++k)
