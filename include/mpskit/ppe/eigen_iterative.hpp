@@ -15,6 +15,7 @@
 #include "mpskit/core/params.hpp"
 #include "mpskit/ppe/concepts.hpp"
 #include "mpskit/ppe/ilu0.hpp"
+#include "mpskit/ppe/interleaved_product.hpp"
 
 namespace mpskit::ppe {
 
@@ -236,6 +237,8 @@ class eigen_iterative {
 
  private:
   static constexpr bool lagging = requires(EigenSolver& e) { e.preconditioner().refactor(true); };
+  /// The solver multiplies through interleaved_operator (ppe/interleaved_product.hpp).
+  static constexpr bool interleaved = std::is_same_v<typename EigenSolver::MatrixType, interleaved_operator>;
 
   /// Sets the solver up for A; keep: the ILUT or ILU(0) factors of the last factorisation are kept.
   Eigen::ComputationInfo prepare(const matrix& A, bool keep) {
@@ -248,7 +251,12 @@ class eigen_iterative {
       s_.preconditioner().setFillfactor(p_.ilut_fill_factor);
     }
     if constexpr (lagging) s_.preconditioner().refactor(!keep);
-    s_.compute(A);
+    if constexpr (interleaved) {
+      op_ = interleaved_operator(A);  // the solver keeps a pointer to op_, op_ one to A
+      s_.compute(op_);
+    } else {
+      s_.compute(A);
+    }
     A_ = &A;
     Eigen::ComputationInfo info = s_.info();
     if constexpr (lagging) {
@@ -341,6 +349,7 @@ class eigen_iterative {
 
   solver_params p_{};
   EigenSolver s_;
+  interleaved_operator op_;  // the operator the solver holds when `interleaved`
   const matrix* A_ = nullptr;
   index_t rows_ = -1;     // size at the last compute
   long since_ = 0;        // solves since the last factorisation
@@ -361,14 +370,21 @@ using cg_ichol = detail::eigen_iterative<
     Eigen::ConjugateGradient<matrix, Eigen::Lower | Eigen::Upper,
                              Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::NaturalOrdering<std::ptrdiff_t>>>,
     true>;
+/// The BiCGSTAB solvers multiply through detail::interleaved_operator: Eigen's products' bits in about 0.7× their
+/// time (ppe/interleaved_product.hpp); P, the preconditioner, is built on the sparse matrix.
+namespace detail {
+template <class P>
+using bicgstab_interleaved = Eigen::BiCGSTAB<interleaved_operator, on_sparse<P>>;
+}  // namespace detail
 /// BiCGSTAB with incomplete LU (any non-singular system).
-using bicgstab = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
+using bicgstab = detail::eigen_iterative<
+    detail::bicgstab_interleaved<detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// BiCGSTAB with Jacobi preconditioning (any non-singular system; no factorisation cost).
-using bicgstab_jacobi = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, Eigen::DiagonalPreconditioner<double>>, false>;
+using bicgstab_jacobi = detail::eigen_iterative<detail::bicgstab_interleaved<Eigen::DiagonalPreconditioner<double>>, false>;
 /// BiCGSTAB with ILU(0) (ppe/ilu0.hpp: no fill; any non-singular system whose elimination on A's pattern meets no
 /// zero pivot: a zero pivot fails compute, where ILUT replaces it). Lagged as ILUT (solver_params::ilut_reuse,
 /// ilut_reuse_across_changes); ilut_drop_tolerance and ilut_fill_factor do not apply.
-using bicgstab_ilu0 = detail::eigen_iterative<Eigen::BiCGSTAB<matrix, detail::lagged_preconditioner<incomplete_lu0>>, false>;
+using bicgstab_ilu0 = detail::eigen_iterative<detail::bicgstab_interleaved<detail::lagged_preconditioner<incomplete_lu0>>, false>;
 /// Restarted GMRES with incomplete LU (restart set from solver_params::restart).
 using gmres = detail::eigen_iterative<Eigen::GMRES<matrix, detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>, false>;
 /// IDR(s) with Jacobi preconditioning (s from solver_params::idrs_s).
