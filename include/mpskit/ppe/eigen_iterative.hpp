@@ -162,6 +162,7 @@ template <class EigenSolver, bool Symmetric>
 class eigen_iterative {
  public:
   static constexpr bool requires_symmetric = Symmetric;
+  using solver_type = EigenSolver;  ///< the Eigen solver behind it
   eigen_iterative() = default;
   explicit eigen_iterative(const solver_params& p) : p_(p) { p_.validate(); }
   const solver_params& params() const { return p_; }           ///< stopping rule
@@ -370,8 +371,8 @@ using cg_ichol = detail::eigen_iterative<
     Eigen::ConjugateGradient<matrix, Eigen::Lower | Eigen::Upper,
                              Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::NaturalOrdering<std::ptrdiff_t>>>,
     true>;
-/// The BiCGSTAB solvers multiply through detail::interleaved_operator: Eigen's products' bits in about 0.7× their
-/// time (ppe/interleaved_product.hpp); P, the preconditioner, is built on the sparse matrix.
+/// The BiCGSTAB solvers multiply through detail::interleaved_operator: Eigen's products' bits (without FMA
+/// contraction) in less time (ppe/interleaved_product.hpp); P, the preconditioner, is built on the sparse matrix.
 namespace detail {
 template <class P>
 using bicgstab_interleaved = Eigen::BiCGSTAB<interleaved_operator, on_sparse<P>>;

@@ -2,17 +2,20 @@
 /// \file ppe/interleaved_product.hpp
 /// \brief The PPE matrix's product with a vector, four rows at a time, for the BiCGSTAB solvers
 /// (ppe/eigen_iterative.hpp): the same arithmetic as Eigen's row-major sparse × dense product, so the same bits,
-/// in about 0.7× its time.
+/// in less time (0.69–0.89× on the benchmark's matrices, −O3; the 3 mm dam break 0.90–0.94× overall).
 ///
 /// Eigen sums each row in one chain, `tmp += a_ik x_k` in storage order, and finishes the rows one after the
 /// other: each addition waits for the one before it. Here four rows are summed side by side, each in its own
 /// chain and in the same order, so the processor overlaps four chains. Each row's sum is Eigen's (the same
 /// operations in the same order; no reassociation), and y_i += α tmp_i as Eigen does, so the result is the same to
-/// the bit (test "the interleaved product gives Eigen's bits", label solver). Measured: 0.55–0.84× Eigen's time
-/// on systems of 1200–5000 rows with 25–46 entries per row (docs/performance.md, "The interleaved sparse product").
-/// Ours: an implementation device, not a method of the papers.
+/// the bit (test "the interleaved product gives Eigen's bits", label solver) — **when the compiler does not fuse
+/// multiply-adds** (no -mfma / -march with FMA, or -ffp-contract=off): with FMA, g++ contracts this loop and Eigen's
+/// differently, and the last bits of some rows differ (each result is as accurate). Measured in
+/// docs/performance.md, "The interleaved sparse product". Ours: an implementation device, not a method of the
+/// papers.
 #include <algorithm>
 #include <cstddef>
+#include <functional>
 
 #include <Eigen/SparseCore>
 
@@ -33,33 +36,37 @@ struct traits<mpskit::ppe::detail::interleaved_operator> : public traits<mpskit:
 
 namespace mpskit::ppe {
 
-/// y += α A x for the row-major PPE matrix A (compressed, as every assembly leaves it). Rows in blocks of four,
+/// y += α A x for the row-major PPE matrix A (compressed or not; x and y distinct). Rows in blocks of four,
 /// each summed in storage order from 0 (Eigen's arithmetic, above). With more than one Eigen thread
 /// (Eigen::nbThreads(), which core/exec.hpp's eigen_threads_scope holds to one for small systems) and more than
 /// 20 000 entries, the blocks are shared among the threads, Eigen's own rule; each row is one thread's, so the
 /// result does not depend on the thread count.
 inline void add_product(const matrix& A, const double* x, double* y, double alpha) {
-  MPSKIT_ASSERT(A.isCompressed());  // every assembly leaves it compressed
   const std::ptrdiff_t n = A.rows();
+  // x and y must not overlap (y is written while x is read); Eigen's own sparse product would use a temporary.
+  MPSKIT_ASSERT(n == 0 || std::less_equal<const double*>()(x + A.cols(), y) || std::less_equal<const double*>()(y + n, x));
   const std::ptrdiff_t* op = A.outerIndexPtr();
   const std::ptrdiff_t* ix = A.innerIndexPtr();
   const double* va = A.valuePtr();
+  const auto* nnz = A.innerNonZeroPtr();  // null when compressed (every assembly); else each row's count
+  const auto end = [&](std::ptrdiff_t i) { return nnz ? op[i] + nnz[i] : op[i + 1]; };
   const std::ptrdiff_t blocks = n / 4;
   const auto block = [&](std::ptrdiff_t b) {
     const std::ptrdiff_t i = 4 * b;
-    const std::ptrdiff_t r0 = op[i], r1 = op[i + 1], r2 = op[i + 2], r3 = op[i + 3], r4 = op[i + 4];
-    const std::ptrdiff_t common = std::min(std::min(r1 - r0, r2 - r1), std::min(r3 - r2, r4 - r3));
+    const std::ptrdiff_t b0 = op[i], b1 = op[i + 1], b2 = op[i + 2], b3 = op[i + 3];
+    const std::ptrdiff_t e0 = end(i), e1 = end(i + 1), e2 = end(i + 2), e3 = end(i + 3);
+    const std::ptrdiff_t common = std::min(std::min(e0 - b0, e1 - b1), std::min(e2 - b2, e3 - b3));
     double t0 = 0.0, t1 = 0.0, t2 = 0.0, t3 = 0.0;
     for (std::ptrdiff_t k = 0; k < common; ++k) {  // four independent chains
-      t0 += va[r0 + k] * x[ix[r0 + k]];
-      t1 += va[r1 + k] * x[ix[r1 + k]];
-      t2 += va[r2 + k] * x[ix[r2 + k]];
-      t3 += va[r3 + k] * x[ix[r3 + k]];
+      t0 += va[b0 + k] * x[ix[b0 + k]];
+      t1 += va[b1 + k] * x[ix[b1 + k]];
+      t2 += va[b2 + k] * x[ix[b2 + k]];
+      t3 += va[b3 + k] * x[ix[b3 + k]];
     }
-    for (std::ptrdiff_t k = r0 + common; k < r1; ++k) t0 += va[k] * x[ix[k]];  // each row's rest, in order
-    for (std::ptrdiff_t k = r1 + common; k < r2; ++k) t1 += va[k] * x[ix[k]];
-    for (std::ptrdiff_t k = r2 + common; k < r3; ++k) t2 += va[k] * x[ix[k]];
-    for (std::ptrdiff_t k = r3 + common; k < r4; ++k) t3 += va[k] * x[ix[k]];
+    for (std::ptrdiff_t k = b0 + common; k < e0; ++k) t0 += va[k] * x[ix[k]];  // each row's rest, in order
+    for (std::ptrdiff_t k = b1 + common; k < e1; ++k) t1 += va[k] * x[ix[k]];
+    for (std::ptrdiff_t k = b2 + common; k < e2; ++k) t2 += va[k] * x[ix[k]];
+    for (std::ptrdiff_t k = b3 + common; k < e3; ++k) t3 += va[k] * x[ix[k]];
     y[i] += alpha * t0;
     y[i + 1] += alpha * t1;
     y[i + 2] += alpha * t2;
@@ -78,7 +85,7 @@ inline void add_product(const matrix& A, const double* x, double* y, double alph
 #endif
   for (std::ptrdiff_t i = 4 * blocks; i < n; ++i) {  // the last n mod 4 rows
     double t = 0.0;
-    for (std::ptrdiff_t k = op[i]; k < op[i + 1]; ++k) t += va[k] * x[ix[k]];
+    for (std::ptrdiff_t k = op[i]; k < end(i); ++k) t += va[k] * x[ix[k]];
     y[i] += alpha * t;
   }
 }
@@ -87,7 +94,8 @@ namespace detail {
 
 /// The PPE matrix as an Eigen matrix-free operator (Eigen's "matrix-free solvers" pattern): Eigen's BiCGSTAB
 /// multiplies through it, so its products run through add_product. The matrix is not copied and must outlive the
-/// operator.
+/// operator. For the solvers only: its products are alias-free (`w = op * w` is refused by add_product's
+/// assertion) and a scaled product c * (op * x) is not Eigen's bitwise (Eigen folds c into the entries).
 class interleaved_operator : public Eigen::EigenBase<interleaved_operator> {
  public:
   using Scalar = double;
