@@ -2,7 +2,7 @@
 // 2026-12-07, against Eigen's row-major sparse × dense product, which they used before:
 //   kernel: y = A x on synthetic matrices shaped like the 2D LSMPS PPE (rows of 20–31 entries within ±60 columns of
 //           the diagonal, 2203 rows) and like a 3D one (rows of 46–57 entries, 1201 rows); each timing is 400 products;
-//   dam3:   Tanaka's 2D dam break at L = 3 mm with lsmps_impact_params (the dam_break_lsmps test's run, 2222
+//   dam3:   Tanaka's 2D dam break at L = 3 mm with lsmps_impact_params (the dam_break_lsmps test's run, 2211
 //           particles), to T = 1.5, with the default BiCGSTAB-Jacobi (interleaved) and the same solver multiplying
 //           through Eigen's product.
 // The two settings alternate within each repetition; printed: median times, the median over repetitions of the
