@@ -2,7 +2,7 @@
 /// \file ppe/interleaved_product.hpp
 /// \brief The PPE matrix's product with a vector, four rows at a time, for the BiCGSTAB solvers
 /// (ppe/eigen_iterative.hpp): the same arithmetic as Eigen's row-major sparse × dense product, so the same bits,
-/// in less time (0.69–0.89× on the benchmark's matrices, −O3; the 3 mm dam break 0.90–0.94× overall).
+/// in less time (0.69–0.92× on the benchmark's matrices, −O3; the 3 mm dam break 0.90–0.94× overall).
 ///
 /// Eigen sums each row in one chain, `tmp += a_ik x_k` in storage order, and finishes the rows one after the
 /// other: each addition waits for the one before it. Here four rows are summed side by side, each in its own
