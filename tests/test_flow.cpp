@@ -20,6 +20,7 @@
 #include "mpskit/ppe/fallback.hpp"
 #include "mpskit/ppe/floating_parts.hpp"
 #include "mpskit/ppe/ilu0.hpp"
+#include "mpskit/ppe/ilut.hpp"
 #include "mpskit/ppe/interleaved_product.hpp"
 #include "mpskit/ppe/sparse_lu.hpp"
 #include "mpskit/wall/polygon_layers.hpp"
@@ -632,6 +633,103 @@ TEST_SUITE("solver") {
       ppe::bicgstab ilut;
       compare(eigen_ilut, ilut, x0);
     }
+  }
+
+  TEST_CASE("solver: ppe::incomplete_lut gives Eigen's ILUT factors bit for bit") {
+    // ppe/ilut.hpp re-implements Eigen's IncompleteLUT::factorize (a heap for the elimination order, each row's
+    // diagonal position kept) with Eigen's operations in Eigen's order, so the stored factors (row starts, column
+    // indices in their stored order, values) must equal Eigen's exactly, and so must the solves (the base class's).
+    // Matrices: a 3D-like non-symmetric one (a 27-point pattern on a 7³ grid with random weights, some entries
+    // dropped, some diagonals zero: Eigen's pivot shift) whose elimination fills and drops, under Eigen's defaults
+    // (drop 1e-12, fill 10), the library's (1e-4, 2), the 3D duct's (1e-3, 2) and no dropping at fill 1; the 2D
+    // convection-diffusion matrix. Under FMA contraction the two loops may be contracted differently: a bound.
+#if defined(__FMA__) || defined(__FP_FAST_FMA)
+    const bool fused = true;
+#else
+    const bool fused = false;
+#endif
+    const auto same_values = [&](const double* a, const double* b, std::ptrdiff_t n) {
+      if (n == 0) return true;
+      if (!fused) return std::memcmp(a, b, sizeof(double) * std::size_t(n)) == 0;
+      for (std::ptrdiff_t k = 0; k < n; ++k)
+        if (std::abs(a[k] - b[k]) > 1e-10 * std::max(1.0, std::abs(a[k]))) return false;
+      return true;
+    };
+    // The protected factors of either class.
+    struct eigen_peek : Eigen::IncompleteLUT<double, std::ptrdiff_t> {
+      const auto& lu() const { return m_lu; }
+    };
+    struct ours_peek : ppe::incomplete_lut {
+      const auto& lu() const { return m_lu; }
+    };
+    const auto check_same = [&](const ppe::matrix& A, double drop, int fill) {
+      CAPTURE(A.rows());
+      CAPTURE(drop);
+      CAPTURE(fill);
+      eigen_peek e;
+      ours_peek o;
+      e.setDroptol(drop);
+      e.setFillfactor(fill);
+      o.setDroptol(drop);
+      o.setFillfactor(fill);
+      e.compute(A);
+      o.compute(A);
+      REQUIRE(e.info() == Eigen::Success);
+      REQUIRE(o.info() == Eigen::Success);
+      const auto &le = e.lu(), &lo = o.lu();
+      REQUIRE(le.isCompressed());
+      REQUIRE(lo.nonZeros() == le.nonZeros());
+      CHECK(std::equal(le.outerIndexPtr(), le.outerIndexPtr() + le.rows() + 1, lo.outerIndexPtr()));
+      CHECK(std::equal(le.innerIndexPtr(), le.innerIndexPtr() + le.nonZeros(), lo.innerIndexPtr()));
+      CHECK(same_values(le.valuePtr(), lo.valuePtr(), le.nonZeros()));
+      const Eigen::VectorXd b = known_solution(int(A.rows()));
+      const Eigen::VectorXd xe = e.solve(b), xo = o.solve(b);
+      CHECK(same_values(xe.data(), xo.data(), xe.size()));
+      // A second factorisation with the same object (its work arrays reused) gives the same factors again.
+      o.compute(A);
+      CHECK(same_values(le.valuePtr(), o.lu().valuePtr(), le.nonZeros()));
+      return le.nonZeros();
+    };
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> weight(0.2, 1.0);
+    std::uniform_int_distribution<int> keep(0, 9);
+    const int g = 7;
+    const auto id = [g](int i, int j, int k) { return (static_cast<std::ptrdiff_t>(i) * g + j) * g + k; };
+    std::vector<Eigen::Triplet<double, std::ptrdiff_t>> t;
+    for (int i = 0; i < g; ++i)
+      for (int j = 0; j < g; ++j)
+        for (int k = 0; k < g; ++k) {
+          double sum = 0.0;
+          for (int di = -1; di <= 1; ++di)
+            for (int dj = -1; dj <= 1; ++dj)
+              for (int dk = -1; dk <= 1; ++dk) {
+                const int a = i + di, b = j + dj, c = k + dk;
+                if ((di == 0 && dj == 0 && dk == 0) || a < 0 || b < 0 || c < 0 || a >= g || b >= g || c >= g) continue;
+                if (keep(rng) == 0) continue;  // about 10 % of the pattern missing: a non-symmetric pattern
+                const double w = weight(rng);
+                t.emplace_back(id(i, j, k), id(a, b, c), -w);
+                sum += w;
+              }
+          // every 17th diagonal zero (Eigen shifts a zero pivot to √droptol × the row norm), the others near
+          // sum: weakly dominant, so elimination produces fill of every size
+          if (id(i, j, k) % 17 != 5) t.emplace_back(id(i, j, k), id(i, j, k), 1.05 * sum);
+        }
+    ppe::matrix A3(g * g * g, g * g * g);
+    A3.setFromTriplets(t.begin(), t.end());
+    const std::ptrdiff_t full = check_same(A3, 1e-12, 10);
+    const std::ptrdiff_t library = check_same(A3, ppe::solver_params{}.ilut_drop_tolerance, ppe::solver_params{}.ilut_fill_factor);
+    check_same(A3, 1e-3, 2);
+    check_same(A3, 0.0, 1);
+    CHECK(full > 2 * A3.nonZeros());  // the factorisation did fill (Eigen's defaults) ...
+    CHECK(library < full);            // ... and the library's setting dropped
+    check_same(convection_diffusion(30), 1e-4, 2);
+    // A zero row: NumericalIssue, as Eigen.
+    ppe::matrix Z(3, 3);
+    Z.insert(0, 0) = 1.0;
+    Z.insert(2, 2) = 1.0;
+    Z.makeCompressed();
+    CHECK(ppe::incomplete_lut(Z).info() == Eigen::NumericalIssue);
+    CHECK(Eigen::IncompleteLUT<double, std::ptrdiff_t>(Z).info() == Eigen::NumericalIssue);
   }
 
   TEST_CASE("solver: BiCGSTAB-ILU(0) converges in fewer iterations than Jacobi; zero pivots are refused") {
