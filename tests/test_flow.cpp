@@ -635,14 +635,17 @@ TEST_SUITE("solver") {
     }
   }
 
-  TEST_CASE("solver: ppe::incomplete_lut gives Eigen's ILUT factors bit for bit") {
+  TEST_CASE("solver: ppe::incomplete_lut gives Eigen's ILUT factors and solves bit for bit") {
     // ppe/ilut.hpp re-implements Eigen's IncompleteLUT::factorize (a heap for the elimination order, each row's
-    // diagonal position kept) with Eigen's operations in Eigen's order, so the stored factors (row starts, column
-    // indices in their stored order, values) must equal Eigen's exactly, and so must the solves (the base class's).
-    // Matrices: a 3D-like non-symmetric one (a 27-point pattern on a 7³ grid with random weights, some entries
-    // dropped, some diagonals zero: Eigen's pivot shift) whose elimination fills and drops, under Eigen's defaults
-    // (drop 1e-12, fill 10), the library's (1e-4, 2), the 3D duct's (1e-3, 2) and no dropping at fill 1; the 2D
-    // convection-diffusion matrix. Under FMA contraction the two loops may be contracted differently: a bound.
+    // diagonal position kept) with Eigen's operations in Eigen's order, and the solve with Eigen's sweeps reading
+    // those positions: the stored factors (row starts, column indices in their stored order, values) must equal
+    // Eigen's exactly, and so must the solves. Matrices: a 3D-like non-symmetric one (a 27-point pattern on a 7³
+    // grid with random weights, about 10 % of the pattern missing, every 17th diagonal zero) whose elimination fills
+    // and drops, under Eigen's defaults (drop 1e-12, fill 10), the library's (1e-4, 2), the 3D duct's (1e-3, 2) and
+    // no dropping at fill 1, also given uncompressed and column-major; the 2D convection-diffusion matrix; a 2 × 2
+    // matrix with a zero pivot in either order (Eigen's shift to √droptol × the row norm). One of our objects is
+    // reused across all of them, after a failed factorisation too. Under FMA contraction the two loops may be
+    // contracted differently: a bound.
 #if defined(__FMA__) || defined(__FP_FAST_FMA)
     const bool fused = true;
 #else
@@ -652,7 +655,7 @@ TEST_SUITE("solver") {
       if (n == 0) return true;
       if (!fused) return std::memcmp(a, b, sizeof(double) * std::size_t(n)) == 0;
       for (std::ptrdiff_t k = 0; k < n; ++k)
-        if (std::abs(a[k] - b[k]) > 1e-10 * std::max(1.0, std::abs(a[k]))) return false;
+        if (!(std::abs(a[k] - b[k]) <= 1e-10 * std::max(1.0, std::abs(a[k])))) return false;  // NaN fails
       return true;
     };
     // The protected factors of either class.
@@ -662,7 +665,8 @@ TEST_SUITE("solver") {
     struct ours_peek : ppe::incomplete_lut {
       const auto& lu() const { return m_lu; }
     };
-    const auto check_same = [&](const ppe::matrix& A, double drop, int fill) {
+    ours_peek reused;
+    const auto check_same = [&](const auto& A, double drop, int fill) {
       CAPTURE(A.rows());
       CAPTURE(drop);
       CAPTURE(fill);
@@ -672,23 +676,28 @@ TEST_SUITE("solver") {
       e.setFillfactor(fill);
       o.setDroptol(drop);
       o.setFillfactor(fill);
+      reused.setDroptol(drop);
+      reused.setFillfactor(fill);
       e.compute(A);
       o.compute(A);
+      reused.compute(A);
       REQUIRE(e.info() == Eigen::Success);
-      REQUIRE(o.info() == Eigen::Success);
-      const auto &le = e.lu(), &lo = o.lu();
-      REQUIRE(le.isCompressed());
-      REQUIRE(lo.nonZeros() == le.nonZeros());
-      CHECK(std::equal(le.outerIndexPtr(), le.outerIndexPtr() + le.rows() + 1, lo.outerIndexPtr()));
-      CHECK(std::equal(le.innerIndexPtr(), le.innerIndexPtr() + le.nonZeros(), lo.innerIndexPtr()));
-      CHECK(same_values(le.valuePtr(), lo.valuePtr(), le.nonZeros()));
       const Eigen::VectorXd b = known_solution(int(A.rows()));
-      const Eigen::VectorXd xe = e.solve(b), xo = o.solve(b);
-      CHECK(same_values(xe.data(), xo.data(), xe.size()));
-      // A second factorisation with the same object (its work arrays reused) gives the same factors again.
-      o.compute(A);
-      CHECK(same_values(le.valuePtr(), o.lu().valuePtr(), le.nonZeros()));
-      return le.nonZeros();
+      const Eigen::VectorXd xe = e.solve(b);
+      const auto& le = e.lu();
+      REQUIRE(le.isCompressed());
+      for (const ours_peek* q : {&o, &reused}) {
+        REQUIRE(q->info() == Eigen::Success);
+        const auto& lo = q->lu();
+        REQUIRE(lo.isCompressed());
+        REQUIRE(lo.nonZeros() == le.nonZeros());
+        CHECK(std::equal(le.outerIndexPtr(), le.outerIndexPtr() + le.rows() + 1, lo.outerIndexPtr()));
+        CHECK(std::equal(le.innerIndexPtr(), le.innerIndexPtr() + le.nonZeros(), lo.innerIndexPtr()));
+        CHECK(same_values(le.valuePtr(), lo.valuePtr(), le.nonZeros()));
+        const Eigen::VectorXd xo = q->solve(b);
+        CHECK(same_values(xe.data(), xo.data(), xe.size()));
+      }
+      return std::vector<double>(le.valuePtr(), le.valuePtr() + le.nonZeros());
     };
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> weight(0.2, 1.0);
@@ -710,26 +719,71 @@ TEST_SUITE("solver") {
                 t.emplace_back(id(i, j, k), id(a, b, c), -w);
                 sum += w;
               }
-          // every 17th diagonal zero (Eigen shifts a zero pivot to √droptol × the row norm), the others near
-          // sum: weakly dominant, so elimination produces fill of every size
+          // every 17th diagonal zero, the others near the off-diagonal sum: weakly dominant, so elimination
+          // produces fill of every size
           if (id(i, j, k) % 17 != 5) t.emplace_back(id(i, j, k), id(i, j, k), 1.05 * sum);
         }
     ppe::matrix A3(g * g * g, g * g * g);
     A3.setFromTriplets(t.begin(), t.end());
-    const std::ptrdiff_t full = check_same(A3, 1e-12, 10);
-    const std::ptrdiff_t library = check_same(A3, ppe::solver_params{}.ilut_drop_tolerance, ppe::solver_params{}.ilut_fill_factor);
+    const std::size_t full = check_same(A3, 1e-12, 10).size();
+    const std::size_t library =
+        check_same(A3, ppe::solver_params{}.ilut_drop_tolerance, ppe::solver_params{}.ilut_fill_factor).size();
     check_same(A3, 1e-3, 2);
     check_same(A3, 0.0, 1);
-    CHECK(full > 2 * A3.nonZeros());  // the factorisation did fill (Eigen's defaults) ...
-    CHECK(library < full);            // ... and the library's setting dropped
+    CHECK(full > 2 * std::size_t(A3.nonZeros()));  // the factorisation did fill (Eigen's defaults) ...
+    CHECK(library < full);                          // ... and the library's setting dropped
+    ppe::matrix U3 = A3;  // the same matrix uncompressed (room left in its rows), and column-major
+    U3.reserve(Eigen::VectorXi::Constant(U3.outerSize(), 2));
+    REQUIRE(!U3.isCompressed());
+    check_same(U3, 1e-4, 2);
+    const Eigen::SparseMatrix<double, Eigen::ColMajor, std::ptrdiff_t> C3 = A3;
+    check_same(C3, 1e-4, 2);
     check_same(convection_diffusion(30), 1e-4, 2);
-    // A zero row: NumericalIssue, as Eigen.
+    // [[0, 1], [·, 1]] (a stored 0 on the first diagonal, nothing at (1, 0)): in either order AMD may give, the row
+    // with the zero diagonal keeps it through elimination (in the given order it has no lower entry; swapped, its
+    // multiplier meets an empty U row), so Eigen shifts it to √droptol × |row| = 0.01 × 1: asserted to happen.
+    ppe::matrix P2(2, 2);
+    P2.insert(0, 0) = 0.0;
+    P2.insert(0, 1) = 1.0;
+    P2.insert(1, 1) = 1.0;
+    P2.makeCompressed();
+    const std::vector<double> v2 = check_same(P2, 1e-4, 2);
+    CHECK(std::count(v2.begin(), v2.end(), 0.01) == 1);
+    // A zero row: NumericalIssue, as Eigen; the reused object factorises the next matrix as a fresh one does.
     ppe::matrix Z(3, 3);
     Z.insert(0, 0) = 1.0;
     Z.insert(2, 2) = 1.0;
     Z.makeCompressed();
-    CHECK(ppe::incomplete_lut(Z).info() == Eigen::NumericalIssue);
     CHECK(Eigen::IncompleteLUT<double, std::ptrdiff_t>(Z).info() == Eigen::NumericalIssue);
+    reused.compute(Z);
+    CHECK(reused.info() == Eigen::NumericalIssue);
+    check_same(convection_diffusion(7), 1e-4, 2);
+    // An empty system: empty factors and an empty solve (Eigen's factorize would divide by zero).
+    const ppe::matrix E(0, 0);
+    const ppe::incomplete_lut empty(E);
+    CHECK(empty.info() == Eigen::Success);
+    CHECK(empty.solve(Eigen::VectorXd(0)).size() == 0);
+    // GMRES (the other ILUT solver) against Eigen's GMRES with Eigen's ILUT, restart 50 as ours: the same
+    // iterations and iterate.
+    const ppe::matrix A = convection_diffusion(30);
+    const Eigen::VectorXd u = known_solution(900);
+    const Eigen::VectorXd rhs = A * u;
+    Eigen::GMRES<ppe::matrix, Eigen::IncompleteLUT<double, std::ptrdiff_t>> eigen_gmres;
+    eigen_gmres.set_restart(50);
+    eigen_gmres.setTolerance(ppe::solver_params{}.tolerance);
+    eigen_gmres.setMaxIterations(ppe::solver_params{}.max_iterations);
+    eigen_gmres.preconditioner().setDroptol(ppe::solver_params{}.ilut_drop_tolerance);
+    eigen_gmres.preconditioner().setFillfactor(ppe::solver_params{}.ilut_fill_factor);
+    eigen_gmres.compute(A);
+    const Eigen::VectorXd xe = eigen_gmres.solve(rhs);
+    ppe::gmres ours;
+    REQUIRE(ours.compute(A) == Eigen::Success);
+    Eigen::VectorXd xo = Eigen::VectorXd::Zero(900);
+    const ppe::solve_report r = ours.solve(rhs, xo);
+    REQUIRE(r.info == Eigen::Success);
+    CHECK(r.iterations == eigen_gmres.iterations());
+    CHECK(r.iterations > 1);
+    CHECK(same_values(xe.data(), xo.data(), 900));
   }
 
   TEST_CASE("solver: BiCGSTAB-ILU(0) converges in fewer iterations than Jacobi; zero pivots are refused") {

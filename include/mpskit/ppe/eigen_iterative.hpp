@@ -26,8 +26,9 @@ struct solver_params {
   long max_iterations = 2000;  ///< iteration cap (non-convergence is an error of the scheme)
   long restart = 50;         ///< GMRES restart length (set explicitly; Eigen's default is 30)
   long idrs_s = 4;           ///< IDR(s) shadow-space dimension
-  /// ILUT (bicgstab, gmres; bicgstab_ilu0 has no fill and ignores both): entries below ilut_drop_tolerance × the
-  /// row norm are dropped and each row keeps at most ilut_fill_factor × its original count. Eigen's defaults
+  /// ILUT (bicgstab, gmres; bicgstab_ilu0 has no fill and ignores both): Eigen's rule (ppe/ilut.hpp) drops
+  /// multipliers at or below ilut_drop_tolerance and U entries at or below it × the row norm. Each row keeps about
+  /// half of ilut_fill_factor × A's average row count in L and as many in U. Eigen's defaults
   /// (1e-12, 10) make ILUT a near exact LU: on the LSMPS PPE (≈ 30 entries per row) the factorisation took 81 %
   /// of a Taylor–Green step.
   double ilut_drop_tolerance = 1e-4;
