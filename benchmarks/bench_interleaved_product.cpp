@@ -24,6 +24,7 @@
 
 using namespace mpskit;
 using mpskit::bench::median;
+using mpskit::bench::seconds_since;
 
 namespace {
 
@@ -48,10 +49,6 @@ ppe::matrix synthetic(long n, int base, unsigned seed) {
   A.setFromTriplets(t.begin(), t.end(), [](double a, double) { return a; });  // duplicates: the first kept
   A.makeCompressed();
   return A;
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 // error metrics against a reference. Writes a CSV, a Markdown table and a PNG of error against wall
 // time through gnuplot (Debian package gnuplot-nox, scripts/deps.sh).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -85,6 +86,11 @@ inline double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Seconds of the steady clock since t0.
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 // Command-line numbers (parse_number, parse_numbers, whole_number, parse_integer, parse_integers): shared with the
