@@ -18,7 +18,7 @@
 /// multipliers in elimination order, the same compaction of U and Eigen's own `internal::QuickSplit` on the same
 /// arrays, the factors stored through the same sparse insertion calls. So the stored L and U (values, column
 /// indices, their order in each row) are Eigen's. The solve is Eigen's triangular sweeps with each row's diagonal
-/// found by its kept position rather than by walking the row's L part (the walk took 11 % of Eigen's solve in the
+/// found by its kept position rather than by walking the row's L part (the walk took 12 % of Eigen's solve in the
 /// 2D multi-diameter channel). tests/test_flow.cpp (label `solver`) compares the factors and the solves with
 /// Eigen's bit for bit. docs/performance.md, "ILUT with Eigen's factors in less time".
 #include <algorithm>
