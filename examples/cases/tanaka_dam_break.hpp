@@ -166,9 +166,12 @@ inline geometry::polygon_mesh<2> tanaka_dam_break_walls(const tanaka_dam_break_c
   std::vector<vec<2>> v{{c.vessel_left, c.vessel_height}, {c.vessel_left, 0.0}};
   if (c.has_obstacle()) {
     const double a = c.obstacle_centre - 0.5 * c.obstacle_width, b = c.obstacle_centre + 0.5 * c.obstacle_width;
-    v.insert(v.end(), {{a, 0.0}, {a, c.obstacle_height}, {b, c.obstacle_height}, {b, 0.0}});
+    for (const vec<2>& q : {vec<2>(a, 0.0), vec<2>(a, c.obstacle_height), vec<2>(b, c.obstacle_height), vec<2>(b, 0.0)})
+      v.push_back(q);
   }
-  v.insert(v.end(), {{c.vessel_right, 0.0}, {c.vessel_right, c.vessel_height}});
+  // push_back, not insert(end, {...}): GCC 12 at -O3 reports a false -Warray-bounds in the inlined range insert.
+  v.push_back(vec<2>(c.vessel_right, 0.0));
+  v.push_back(vec<2>(c.vessel_right, c.vessel_height));
   std::vector<std::array<index_t, 2>> el;
   for (index_t k = 0; k + 1 < static_cast<index_t>(v.size()); ++k) el.push_back({k, k + 1});
   if (c.closed_top) el.push_back({static_cast<index_t>(v.size()) - 1, 0});
