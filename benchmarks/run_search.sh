@@ -6,7 +6,8 @@
 #   benchmarks/run_search.sh [extra benchmark args, e.g. --benchmark_filter=sweep]
 #
 # Environment: BUILD_DIR (default build-benchmarks), CXX_FLAGS (default "-O2 -DNDEBUG": release code,
-# IEEE math, no -ffast-math; use "-O2" to measure with assertions on, as CI builds), THREADS (default
+# IEEE math, no -ffast-math; use "-O2" to measure with assertions on, as CI built until 2026-12-07, or
+# "-O3" as CI builds since), THREADS (default
 # "1 2"), REPETITIONS (default 5), JOBS (default 1: the machine is shared).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"

@@ -166,10 +166,12 @@ inline geometry::polygon_mesh<2> tanaka_dam_break_walls(const tanaka_dam_break_c
   std::vector<vec<2>> v{{c.vessel_left, c.vessel_height}, {c.vessel_left, 0.0}};
   if (c.has_obstacle()) {
     const double a = c.obstacle_centre - 0.5 * c.obstacle_width, b = c.obstacle_centre + 0.5 * c.obstacle_width;
-    for (const vec<2>& q : {vec<2>(a, 0.0), vec<2>(a, c.obstacle_height), vec<2>(b, c.obstacle_height), vec<2>(b, 0.0)})
-      v.push_back(q);
+    // push_back, not insert(end, {...}): GCC 12 at -O3 reports a false -Warray-bounds in the inlined range insert.
+    v.push_back(vec<2>(a, 0.0));
+    v.push_back(vec<2>(a, c.obstacle_height));
+    v.push_back(vec<2>(b, c.obstacle_height));
+    v.push_back(vec<2>(b, 0.0));
   }
-  // push_back, not insert(end, {...}): GCC 12 at -O3 reports a false -Warray-bounds in the inlined range insert.
   v.push_back(vec<2>(c.vessel_right, 0.0));
   v.push_back(vec<2>(c.vessel_right, c.vessel_height));
   std::vector<std::array<index_t, 2>> el;
