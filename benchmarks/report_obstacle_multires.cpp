@@ -28,7 +28,12 @@
 // The impulse needs a T_end past the reference's impact and its 10 ms window (T ≳ 3.2); with the default 2.4 only the
 // front is compared. The study asks for a 1 mm reference to t = 0.4 s (T = 5.6); what was run is in
 // docs/validation.md "Dam break with the obstacle". A configuration that fails is recorded (not repeated; NaN metrics,
-// `completed` 0, T reached) and the study goes on; a failed reference stops it.
+// `completed` 0, T reached) and the study goes on; a failed reference stops it. --solver jacobi|ilu0 (default jacobi,
+// the LSMPS default BiCGSTAB-Jacobi; ilu0: ppe::bicgstab_ilu0, docs/performance.md "ILU(0) for the LSMPS PPE") is the
+// PPE solver of every run of the invocation, the reference's too; with ilu0 the --series key gains "; solver ilu0"
+// (a Jacobi key is the one from before the option, so older series directories stay valid). --across-changes 0|1
+// (default 0; needs --solver ilu0): ppe::solver_params::ilut_reuse_across_changes, the factors kept when the unknowns
+// change (up to ilut_reuse solves), key "; across changes".
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -41,12 +46,21 @@
 #include <vector>
 
 #include "cases/tanaka_obstacle_multires.hpp"
+#include "mpskit/ppe/ilu0.hpp"
 #include "reporter.hpp"
 #include "speed_up.hpp"
 
 using namespace mpskit;
 
 namespace {
+
+// The scenes with BiCGSTAB-ILU(0) in place of the default BiCGSTAB-Jacobi (--solver ilu0).
+struct single_ilu0_scene : lsmps_defaults<2> {
+  using solver = ppe::bicgstab_ilu0;
+};
+struct multi_ilu0_scene : cases::obstacle_multires_scene {
+  using solver = ppe::bicgstab_ilu0;
+};
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> v;
@@ -250,7 +264,7 @@ void speed_ups(const bench::reporter& rep, const char* metric, std::ostream& log
 
 int main(int argc, char** argv) try {
   double ref_mm = 2.5, T_end = 2.4, collision = 0.0;
-  bool collide_isolated = false, shift_isolated = false;
+  bool collide_isolated = false, shift_isolated = false, ilu0 = false, across_changes = false;
   const auto flag01 = [](const char* what, const std::string& v) {
     const int f = bench::parse_integer(what, v, 0);
     if (f > 1) fail("report_obstacle_multires: ", what, " ", f, ": must be 0 or 1");
@@ -271,7 +285,10 @@ int main(int argc, char** argv) try {
     else if (k == "--collision") collision = bench::parse_number("--collision", v, 0.0);  // validated by the scheme
     else if (k == "--collide-isolated") collide_isolated = flag01("--collide-isolated", v);
     else if (k == "--shift-isolated") shift_isolated = flag01("--shift-isolated", v);
-    else if (k == "--single") {
+    else if (k == "--solver") {
+      if (v != "jacobi" && v != "ilu0") fail("report_obstacle_multires: --solver '", v, "': jacobi or ilu0");
+      ilu0 = v == "ilu0";
+    } else if (k == "--across-changes") across_changes = flag01("--across-changes", v);    else if (k == "--single") {
       singles.clear();
       for (const std::string& s : split(v)) singles.push_back(number(s, "--single"));
     } else if (k == "--multi") {
@@ -283,7 +300,7 @@ int main(int argc, char** argv) try {
       }
     } else fail("report_obstacle_multires: unknown option '", k,
                 "' (--reference, --single, --multi, --T, --repetitions, --out, --walls, --collision, "
-                "--collide-isolated, --shift-isolated, --series)");
+                "--collide-isolated, --shift-isolated, --series, --solver, --across-changes)");
   }
   if (argc % 2 == 0) fail("report_obstacle_multires: option '", argv[argc - 1], "' has no value");
   scheme::lsmps_params<2> p = cases::obstacle_params(walls);
@@ -291,12 +308,16 @@ int main(int argc, char** argv) try {
   p.collision.isolated = collide_isolated;
   p.shift_isolated_penalty = shift_isolated;
   p.collision.validate();
+  if (across_changes && !ilu0) fail("report_obstacle_multires: --across-changes 1 needs --solver ilu0");
+  p.solver.ilut_reuse_across_changes = across_changes;
   if (collide_isolated && collision == 0.0)
     fail("report_obstacle_multires: --collide-isolated 1 needs the collision stage on (--collision ALPHA1 > 0)");
   std::cout << "report_obstacle_multires (" << MPSKIT_BENCH_FLAGS << "), to T = " << T_end << ", reference "
             << ref_mm << " mm, walls '" << walls << "', collision alpha1 " << collision
             << (collide_isolated ? " (isolated particles too)" : "")
-            << (shift_isolated ? ", isolated particles in the shifting penalty" : "") << "\n";
+            << (shift_isolated ? ", isolated particles in the shifting penalty" : "") << ", PPE solver "
+            << (ilu0 ? "BiCGSTAB-ILU(0)" : "BiCGSTAB-Jacobi")
+            << (across_changes ? " (factors kept across changes of the unknowns)" : "") << "\n";
   // A run's configuration, the key of its --series file: the options that change its result or its wall time, and
   // the case's vessel settings. Not the library's code: a series directory belongs to one build of it.
   if (singles.empty() && multis.empty() && series.empty())
@@ -309,7 +330,8 @@ int main(int argc, char** argv) try {
     k << run << "; L " << L_mm << " mm; T " << T_end << "; walls " << walls << "; collision " << collision
       << " isolated " << collide_isolated << "; shift_isolated " << shift_isolated << "; vessel " << c.vessel_height
       << " m" << (c.closed_top ? " closed" : " open") << (c.remove_outside ? ", remove_outside" : "") << "; threads "
-      << max_threads() << "; build " << MPSKIT_BENCH_FLAGS;
+      << max_threads() << "; build " << MPSKIT_BENCH_FLAGS << (ilu0 ? "; solver ilu0" : "")
+      << (across_changes ? "; across changes" : "");
     return k.str();
   };
   const auto file = [](const std::string& run) {  // "multi 5/2.5 mm" -> "multi_5_over_2.5_mm"
@@ -325,7 +347,9 @@ int main(int argc, char** argv) try {
     std::ostringstream name;
     name << "single " << L_mm << " mm";
     return cache.get(file(name.str()), key(name.str(), L_mm), [&] {
-      return cases::run_tanaka_dam_break(cases::tanaka_obstacle_config(1e-3 * L_mm), T_end, p, true);
+      const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L_mm);
+      return ilu0 ? cases::run_tanaka_dam_break<single_ilu0_scene>(c, T_end, p, true)
+                  : cases::run_tanaka_dam_break(c, T_end, p, true);
     }, std::cout);
   };
   const cases::tanaka_dam_break_config ref_c = cases::tanaka_obstacle_config(1e-3 * ref_mm);
@@ -360,7 +384,8 @@ int main(int argc, char** argv) try {
                  const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L);
                  scheme::lsmps_params<2> pm = p;
                  cases::refine_around_block(pm, c, ratio, 0.03, 0.06);
-                 return cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true);
+                 return ilu0 ? cases::run_tanaka_dam_break<multi_ilu0_scene>(c, T_end, pm, true)
+                             : cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true);
                }, std::cout), ref, T_impact, T_end, n.c_str(), std::cout);
              }});
   }
@@ -377,7 +402,7 @@ int main(int argc, char** argv) try {
   f << "# reference: single resolution " << ref_mm << " mm to T = " << T_end << ", " << ref.wall_seconds
     << " s; walls " << walls << ", collision alpha1 " << collision
     << (collide_isolated ? " (isolated too)" : "") << (shift_isolated ? ", isolated in the shifting penalty" : "")
-    << "; front before T = " << T_impact
+    << "; PPE solver " << (ilu0 ? "ilu0" : "jacobi") << (across_changes ? " (across changes)" : "") << "; front before T = " << T_impact
     << "; far-wall impulse " << mref.impulse << " Pa s\n";
   f << "multires,metric,multires_wall_median_s,multires_error,single_runs,kind,single_seconds,speed_up,dominated\n";
   speed_ups(rep, "front_rms", std::cout, f);

@@ -346,7 +346,7 @@ class pressure_boundary {
                    std::vector<inflow_particle<D>>& out) const {
     out.clear();
     const op::lsmps_b<D, 1> fit(fit_params);
-    std::vector<index_t> cand;
+    std::vector<index_t> cand, idx;  // buffers kept across boundary particles
     points<D> xloc;
     Eigen::VectorXd lloc;
     for (index_t k = 0; k < size(); ++k) {
@@ -373,7 +373,7 @@ class pressure_boundary {
         const index_t m = static_cast<index_t>(cand.size());
         xloc.resize(D, m);
         lloc.resize(m);
-        std::vector<index_t> idx(static_cast<std::size_t>(m));
+        idx.resize(static_cast<std::size_t>(m));
         for (index_t c = 0; c < m; ++c) {
           xloc.col(c) = x_.col(k) + nl.displacement(x, g, cand[static_cast<std::size_t>(c)]);
           lloc[c] = L[cand[static_cast<std::size_t>(c)]];
