@@ -288,7 +288,9 @@ int main(int argc, char** argv) try {
     else if (k == "--solver") {
       if (v != "jacobi" && v != "ilu0") fail("report_obstacle_multires: --solver '", v, "': jacobi or ilu0");
       ilu0 = v == "ilu0";
-    } else if (k == "--across-changes") across_changes = flag01("--across-changes", v);    else if (k == "--single") {
+    } else if (k == "--across-changes") {
+      across_changes = flag01("--across-changes", v);
+    } else if (k == "--single") {
       singles.clear();
       for (const std::string& s : split(v)) singles.push_back(number(s, "--single"));
     } else if (k == "--multi") {
@@ -365,7 +367,9 @@ int main(int argc, char** argv) try {
             << (mref.complete ? "" : " (window incomplete: no impulse error)") << ", 2 ms peak " << mref.peak_filtered
             << " Pa, closest pair " << ref.min_pair_ratio << " L, largest speed " << ref.u_max << " m/s\n";
 
-  bench::reporter rep("Dam break with the obstacle, front against " + std::to_string(ref_mm).substr(0, 4) + " mm", reps);
+  bench::reporter rep("Dam break with the obstacle, front against " + std::to_string(ref_mm).substr(0, 4) + " mm" +
+                          (ilu0 ? ", BiCGSTAB-ILU(0)" : ""),
+                      reps);
   for (const double L : singles) {
     std::ostringstream name;
     name << "single " << L << " mm";
@@ -402,7 +406,8 @@ int main(int argc, char** argv) try {
   f << "# reference: single resolution " << ref_mm << " mm to T = " << T_end << ", " << ref.wall_seconds
     << " s; walls " << walls << ", collision alpha1 " << collision
     << (collide_isolated ? " (isolated too)" : "") << (shift_isolated ? ", isolated in the shifting penalty" : "")
-    << "; PPE solver " << (ilu0 ? "ilu0" : "jacobi") << (across_changes ? " (across changes)" : "") << "; front before T = " << T_impact
+    << "; PPE solver " << (ilu0 ? "ilu0" : "jacobi") << (across_changes ? " (across changes)" : "")
+    << "; front before T = " << T_impact
     << "; far-wall impulse " << mref.impulse << " Pa s\n";
   f << "multires,metric,multires_wall_median_s,multires_error,single_runs,kind,single_seconds,speed_up,dominated\n";
   speed_ups(rep, "front_rms", std::cout, f);
