@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "cases/tanaka_dam_break_run.hpp"
+#include "cases/tanaka_ilu0_scene.hpp"
 #include "reporter.hpp"
 
 using namespace mpskit;
@@ -28,12 +29,8 @@ namespace {
 struct multi_jacobi : lsmps_defaults<2> {
   using resolution = mpskit::resolution::split_merge<>;
 };
-struct multi_ilu0 : multi_jacobi {
-  using solver = ppe::bicgstab_ilu0;
-};
-struct single_ilu0 : lsmps_defaults<2> {
-  using solver = ppe::bicgstab_ilu0;
-};
+using multi_ilu0 = cases::with_ilu0<multi_jacobi>;
+using single_ilu0 = cases::tanaka_ilu0_scene;
 
 struct sample {
   double seconds = 0.0, front = 0.0;

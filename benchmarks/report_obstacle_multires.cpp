@@ -46,21 +46,13 @@
 #include <vector>
 
 #include "cases/tanaka_obstacle_multires.hpp"
-#include "mpskit/ppe/ilu0.hpp"
+#include "cases/tanaka_ilu0_scene.hpp"
 #include "reporter.hpp"
 #include "speed_up.hpp"
 
 using namespace mpskit;
 
 namespace {
-
-// The scenes with BiCGSTAB-ILU(0) in place of the default BiCGSTAB-Jacobi (--solver ilu0).
-struct single_ilu0_scene : lsmps_defaults<2> {
-  using solver = ppe::bicgstab_ilu0;
-};
-struct multi_ilu0_scene : cases::obstacle_multires_scene {
-  using solver = ppe::bicgstab_ilu0;
-};
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> v;
@@ -350,7 +342,7 @@ int main(int argc, char** argv) try {
     name << "single " << L_mm << " mm";
     return cache.get(file(name.str()), key(name.str(), L_mm), [&] {
       const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L_mm);
-      return ilu0 ? cases::run_tanaka_dam_break<single_ilu0_scene>(c, T_end, p, true)
+      return ilu0 ? cases::run_tanaka_dam_break<cases::tanaka_ilu0_scene>(c, T_end, p, true)
                   : cases::run_tanaka_dam_break(c, T_end, p, true);
     }, std::cout);
   };
@@ -388,7 +380,7 @@ int main(int argc, char** argv) try {
                  const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L);
                  scheme::lsmps_params<2> pm = p;
                  cases::refine_around_block(pm, c, ratio, 0.03, 0.06);
-                 return ilu0 ? cases::run_tanaka_dam_break<multi_ilu0_scene>(c, T_end, pm, true)
+                 return ilu0 ? cases::run_tanaka_dam_break<cases::with_ilu0<cases::obstacle_multires_scene>>(c, T_end, pm, true)
                              : cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true);
                }, std::cout), ref, T_impact, T_end, n.c_str(), std::cout);
              }});

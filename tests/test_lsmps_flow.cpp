@@ -22,6 +22,7 @@
 #include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "cases/tanaka_dam_break_slab.hpp"
+#include "cases/tanaka_ilu0_scene.hpp"
 #include "cases/taylor_green.hpp"
 #include "mpskit/io/lsmps_checkpoint.hpp"
 #include "support/support.hpp"
@@ -1178,13 +1179,6 @@ tanaka_run run_tanaka_dam_break(double T_end, const std::string& walls, double L
 
 }  // namespace
 
-namespace {
-/// The LSMPS defaults with BiCGSTAB-ILU(0) in place of BiCGSTAB-Jacobi.
-struct tanaka_ilu0_scene : lsmps_defaults<2> {
-  using solver = ppe::bicgstab_ilu0;
-};
-}  // namespace
-
 TEST_SUITE("dam_break_lsmps") {
   TEST_CASE("Tanaka's vessel with closed_top: the lid closes the chain, its normal into the vessel") {
     // Open by default: three elements, and a point above the vessel is not behind any wall. closed_top adds the
@@ -1442,7 +1436,7 @@ TEST_SUITE("dam_break_lsmps") {
     c.L = 0.008;
     const scheme::lsmps_params<2> p = scheme::lsmps_impact_params<2>();
     const auto jacobi = cases::run_tanaka_dam_break(c, 1.0, p);
-    const auto ilu0 = cases::run_tanaka_dam_break<tanaka_ilu0_scene>(c, 1.0, p);
+    const auto ilu0 = cases::run_tanaka_dam_break<cases::tanaka_ilu0_scene>(c, 1.0, p);
     CHECK(ilu0.steps == jacobi.steps);
     REQUIRE(ilu0.Z.size() == jacobi.Z.size());
     REQUIRE(jacobi.Z.size() >= 20);  // every 0.05 T
