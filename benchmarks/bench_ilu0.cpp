@@ -5,7 +5,8 @@
 // Settings: Jacobi; ILU(0) with the default lag (solver_params::ilut_reuse = 4, same unknowns only); ILU(0)
 // factorised at every solve (ilut_reuse = 1). Runs alternate between the settings within each repetition, so the
 // machine's drift hits all of them alike; printed per setting: the median wall time, the median over repetitions
-// of the ratio to Jacobi measured in the same repetition, the PPE iterations, and the front at the end (the
+// of the ratio to Jacobi measured in the same repetition, the PPE iterations (per repetition also the pressure solves
+// and the ILU(0) factorisations among them), and the front at the end (the
 // solvers reach the same tolerance, so the runs agree to the solver's rounding; a chaotic run may drift later).
 // Run from the repository root, with the thread count to measure:
 //
@@ -35,10 +36,12 @@ using single_ilu0 = cases::tanaka_ilu0_scene;
 struct sample {
   double seconds = 0.0, front = 0.0;
   long iterations = 0, steps = 0;
+  long solves = 0, factorisations = 0;  ///< pressure solves; ILU(0) factorisations among them (0 for Jacobi)
 };
 
 sample to_sample(const cases::tanaka_dam_break_result& r) {
-  return {r.wall_seconds, r.Z.empty() ? 0.0 : r.Z.back(), r.ppe_iterations, r.steps};
+  return {r.wall_seconds, r.Z.empty() ? 0.0 : r.Z.back(), r.ppe_iterations, r.steps, r.ppe_solves,
+          r.ppe_factorisations};
 }
 
 /// setting 0: Jacobi; 1: ILU(0), default lag; 2: ILU(0), fresh factors at every solve.
@@ -83,8 +86,10 @@ int main(int argc, char** argv) {
         secs[k].push_back(s.seconds);
         this_rep.push_back(s.seconds);
         last[k] = s;
-        std::printf("  %s %s repetition %d: %.2f s, %ld steps, %ld PPE iterations, front %.6f\n", name.c_str(),
-                    label[k].c_str(), r, s.seconds, s.steps, s.iterations, s.front);
+        std::printf("  %s %s repetition %d: %.2f s, %ld steps, %ld PPE iterations, %ld solves, %ld factorisations, "
+                    "front %.6f\n",
+                    name.c_str(), label[k].c_str(), r, s.seconds, s.steps, s.iterations, s.solves, s.factorisations,
+                    s.front);
         std::fflush(stdout);
       }
       for (std::size_t k = 0; k < label.size(); ++k) ratio[k].push_back(this_rep[k] / this_rep[0]);

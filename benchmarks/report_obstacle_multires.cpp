@@ -83,7 +83,14 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cas
   const double impulse_error = mr.complete && m.complete ? std::abs(m.impulse / mr.impulse - 1.0) : std::nan("");
   log << "    " << name << ": far-wall impulse " << m.impulse << " Pa s" << (m.complete ? "" : " (window incomplete)")
       << ", 2 ms peak " << m.peak_filtered << " Pa, guard activations " << r.guarded << ", closest pair "
-      << r.min_pair_ratio << " L, largest speed " << r.u_max << " m/s\n";
+      << r.min_pair_ratio << " L, largest speed " << r.u_max << " m/s";
+  // Where the PPE's time goes (docs/performance.md "Through the far-wall impact"): solves per step (the active set
+  // and the own-loop guard repeat them), iterations per solve, and incomplete factorisations (ILU(0)) per step.
+  if (r.ppe_solves > 0 && r.steps > 0)
+    log << ", PPE solves per step " << double(r.ppe_solves) / double(r.steps) << ", iterations per solve "
+        << double(r.ppe_iterations) / double(r.ppe_solves) << ", factorisations per step "
+        << double(r.ppe_factorisations) / double(r.steps);
+  log << "\n";
   bench::run_outcome out;
   out.particles = r.particles_end;
   out.steps = r.steps;
@@ -144,7 +151,8 @@ class run_cache {
       f.precision(17);
       f << "key " << key << "\ncounters " << r.particles << ' ' << r.particles_end << ' ' << r.steps << ' '
         << r.wall_seconds << ' ' << r.ppe_iterations << ' ' << r.guarded << ' ' << r.min_pair_ratio << ' '
-        << r.u_max << ' ' << r.failed << ' ' << r.T_failed << "\nfailure " << one_line(r.failure) << "\nfront "
+        << r.u_max << ' ' << r.failed << ' ' << r.T_failed << ' ' << r.ppe_solves << ' ' << r.ppe_factorisations
+        << "\nfailure " << one_line(r.failure) << "\nfront "
         << r.T.size() << "\n";
       for (std::size_t k = 0; k < r.T.size(); ++k) f << r.T[k] << ' ' << r.Z[k] << '\n';
       f << "probe " << r.probe_t.size() << "\n";
@@ -169,10 +177,16 @@ class run_cache {
       fail("report_obstacle_multires: ", path.string(), " holds another configuration:\n  file: ", line.substr(4),
            "\n  this: ", key, "\n(use another --series directory or remove the file)");
     std::vector<double> v;
-    const auto numbers = [&](const std::string& text, std::size_t n) {
+    // n numbers, or (n_older > 0) n_older of them: a file written before the last fields were added.
+    const auto numbers = [&](const std::string& text, std::size_t n, std::size_t n_older = 0) {
       v.clear();
       const char* s = text.c_str();
       for (std::size_t k = 0; k < n; ++k) {
+        if (k == n_older && n_older > 0) {
+          const char* t = s;
+          while (*t == ' ') ++t;
+          if (*t == '\0') break;
+        }
         char* end = nullptr;
         const double x = std::strtod(s, &end);
         if (end == s) bad("a number is missing");
@@ -188,7 +202,7 @@ class run_cache {
       return line.substr(head.size());
     };
     cases::tanaka_dam_break_result r;
-    numbers(section("counters"), 10);
+    numbers(section("counters"), 12, 10);  // 10: written before 2026-12-07 (no PPE solves and factorisations)
     r.particles = static_cast<index_t>(v[0]);
     r.particles_end = static_cast<index_t>(v[1]);
     r.steps = static_cast<long>(v[2]);
@@ -199,6 +213,10 @@ class run_cache {
     r.u_max = v[7];
     r.failed = v[8] != 0.0;
     r.T_failed = v[9];
+    if (v.size() == 12) {
+      r.ppe_solves = static_cast<long>(v[10]);
+      r.ppe_factorisations = static_cast<long>(v[11]);
+    }
     r.failure = section("failure");
     const auto pairs = [&](const char* name, std::vector<double>& a, std::vector<double>& b) {
       numbers(section(name), 1);

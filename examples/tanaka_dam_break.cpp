@@ -457,6 +457,11 @@ int main(int argc, char** argv) {
     std::printf("  PPE solves restarted from 0 after a Krylov breakdown %ld, after not converging from the warm start "
                 "%ld (docs/run.md); shifted velocities clipped %ld; colliding pairs %ld\n",
                 r.ppe_breakdown_restarts, r.ppe_cold_restarts, r.shift_velocity_clipped, r.collisions);
+    if (r.ppe_solves > 0)
+      std::printf("  PPE solves %ld (%.2f per step: the active set's and the own-loop guard's repeats), %.1f iterations "
+                  "per solve, incomplete factorisations %ld\n",
+                  r.ppe_solves, double(r.ppe_solves) / double(std::max(1L, r.steps)),
+                  double(r.ppe_iterations) / double(r.ppe_solves), r.ppe_factorisations);
     if (fallback) std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
     if (std::isfinite(m.t_arrival))
       std::printf("  probe (%.0f, %.0f) mm wet at T = %.3f; over the next 10 ms%s: impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered "

@@ -1020,7 +1020,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 39 values, or of 24 to 38 (older files), the missing ones read as 0") {
+  TEST_CASE("restart: LSMPS counters section of 41 values, or of 24 to 40 (older files), the missing ones read as 0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1048,7 +1048,7 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 39);
+    REQUIRE(v.size() == 41);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
@@ -1063,11 +1063,15 @@ TEST_SUITE("restart") {
     v[35] = 20;  // shift_coincident
     v[36] = 21;  // left_domain
     v[37] = 22;  // active_set_released
-    v[38] = 23;  // ppe_cold_restarts, the last value
+    v[38] = 23;  // ppe_cold_restarts
+    v[39] = 24;  // ppe_solves
+    v[40] = 25;  // ppe_factorisations, the last value
     const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("39.mpscp", v, {0.5, 0.25, 0.125}), b);
+    io::load_simulation(write("41.mpscp", v, {0.5, 0.25, 0.125}), b);
     CHECK(b.counters().ppe_cold_restarts == 23);
+    CHECK(b.counters().ppe_solves == 24);
+    CHECK(b.counters().ppe_factorisations == 25);
     CHECK(b.counters().left_domain == 21);
     CHECK(b.counters().active_set_released == 22);
     CHECK(b.active_set_held().empty());  // no lsmps.active_set_held section: an empty set
@@ -1089,6 +1093,11 @@ TEST_SUITE("restart") {
     CHECK(b.counters().shift_coincident == 20);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
+    md_sim b39(su.params, su.initial, &su.walls, &*su.boundary);  // before the solve ledger: 39 counters
+    io::load_simulation(write("39.mpscp", head(39), {0.5, 0.25, 0.125}), b39);
+    CHECK(b39.counters().ppe_cold_restarts == 23);
+    CHECK(b39.counters().ppe_solves == 0);
+    CHECK(b39.counters().ppe_factorisations == 0);
     md_sim b38(su.params, su.initial, &su.walls, &*su.boundary);  // before cold_restart: 38 counters
     io::load_simulation(write("38.mpscp", head(38), {0.5, 0.25, 0.125}), b38);
     CHECK(b38.counters().active_set_released == 22);
@@ -1142,11 +1151,11 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 39"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 41"), mpskit::error);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("4v.mpscp", v, {0.5, 0.25, 0.125, 1.0}), e),
                          doctest::Contains("'lsmps.boundary_volumes' holds 4 values, expected 3"), mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("40.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 40 values, expected 39"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("42.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 42 values, expected 41"), mpskit::error);
   }
 }

@@ -1449,6 +1449,16 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(ilu0.u_max == doctest::Approx(jacobi.u_max).epsilon(1e-5));
     CHECK(2 * ilu0.ppe_iterations <= jacobi.ppe_iterations);
     CHECK(ilu0.guarded == 0);
+    // The solve ledger (lsmps_counters::ppe_solves, ppe_factorisations): each step solves once, plus the active
+    // set's and the own-loop guard's repeats, whatever the solver; Jacobi factorises nothing; ILU(0) with the default
+    // lag (ilut_reuse = 4) factorises at least every fourth solve and at most at every solve and lagged retry.
+    MESSAGE("PPE solves " << ilu0.ppe_solves << " (Jacobi " << jacobi.ppe_solves << ") over " << ilu0.steps
+                          << " steps, ILU(0) factorisations " << ilu0.ppe_factorisations);
+    for (const auto* r : {&jacobi, &ilu0})
+      CHECK(r->ppe_solves == r->steps + r->active_set_solves + r->own_loop_solves);
+    CHECK(jacobi.ppe_factorisations == 0);
+    CHECK(4 * ilu0.ppe_factorisations >= ilu0.ppe_solves);
+    CHECK(ilu0.ppe_factorisations <= ilu0.ppe_solves + ilu0.ppe_lagged_retries);
   }
 }
 

@@ -71,6 +71,11 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
   long ppe_cold_restarts = 0;  ///< warm-started solves repeated from 0 after not converging (solver_params)
+  /// Pressure solves (steps + active-set and own-loop repeats) and the ILUT / ILU(0) factorisations among them
+  /// (lsmps_counters::ppe_solves, ppe_factorisations; 0 for BiCGSTAB-Jacobi).
+  long ppe_solves = 0, ppe_factorisations = 0;
+  long ppe_lagged_retries = 0;  ///< lagged-factor solves repeated with fresh factors (solver_params::ilut_reuse)
+  long active_set_solves = 0;  ///< PPE solves repeated by the active set (lsmps_counters::active_set_solves)
   long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   double left_domain_volume = 0.0;  ///< their ΣV (m²)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
@@ -412,6 +417,10 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.ppe_fallbacks = sim.counters().ppe_fallbacks;
   r.ppe_breakdown_restarts = sim.counters().ppe_breakdown_restarts;
   r.ppe_cold_restarts = sim.counters().ppe_cold_restarts;
+  r.ppe_solves = sim.counters().ppe_solves;
+  r.ppe_factorisations = sim.counters().ppe_factorisations;
+  r.ppe_lagged_retries = sim.counters().ppe_lagged_retries;
+  r.active_set_solves = sim.counters().active_set_solves;
   r.shift_velocity_clipped = sim.counters().shift_velocity_clipped;
   return r;
 }

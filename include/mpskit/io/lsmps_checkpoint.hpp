@@ -5,8 +5,8 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×39, lsmps_counters' integer counters in the order of
-///                               detail::lsmps_counter_values (older files hold 24 to 38, the missing ones
+///   `lsmps.counters`            int64 ×41, lsmps_counters' integer counters in the order of
+///                               detail::lsmps_counter_values (older files hold 24 to 40, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume, left_domain_volume} (older files: the
 ///                               first two, the third read as 0)

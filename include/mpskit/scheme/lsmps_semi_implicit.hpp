@@ -455,6 +455,10 @@ struct lsmps_counters {
   long filter_amplifying = 0;      ///< particle-steps of the band left unfiltered: Σ|w| of their fit > boundary_filter_params::max_amplification
   long filter_tapered = 0;         ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| > boundary_filter_params::taper_amplification
   long left_domain = 0;            ///< particles removed outside lsmps_params::remove_outside (counted at removal)
+  long ppe_solves = 0;             ///< pressure solves (steps + active-set and own-loop repeats; not the floating
+                                   ///< parts' left-null-vector solves); counted since 2026-12-07 (older checkpoints: 0)
+  long ppe_factorisations = 0;     ///< ILUT or ILU(0) factorisations of the pressure solver, a lagged retry's
+                                   ///< included (0 for solvers without incomplete factors); since 2026-12-07
   double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
   double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
   double left_domain_volume = 0.0; ///< Σ V removed outside lsmps_params::remove_outside (m^D)
@@ -469,7 +473,7 @@ struct lsmps_counters {
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
 /// the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 39> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 41> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -482,7 +486,8 @@ inline constexpr std::array<long lsmps_counters::*, 39> lsmps_counter_fields{
     &lsmps_counters::own_loop_one_point, &lsmps_counters::own_loop_solves, &lsmps_counters::ppe_fallbacks,
     &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
     &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident,
-    &lsmps_counters::left_domain, &lsmps_counters::active_set_released, &lsmps_counters::ppe_cold_restarts};
+    &lsmps_counters::left_domain, &lsmps_counters::active_set_released, &lsmps_counters::ppe_cold_restarts,
+    &lsmps_counters::ppe_solves, &lsmps_counters::ppe_factorisations};
 // A counter added to lsmps_counters without a place in the list above fails here.
 static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 3 * sizeof(double));
 
@@ -1733,9 +1738,12 @@ class lsmps_semi_implicit {
 
     Eigen::VectorXd sol(m);
     for (index_t r = 0; r < m; ++r) sol[r] = pres[rows_[static_cast<std::size_t>(r)]];
+    const long factorised = incomplete_factorisations();
     last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
                                      [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); },
                                      same_unknowns, to_previous_.empty() ? nullptr : &to_previous_);
+    ++c_.ppe_solves;
+    c_.ppe_factorisations += incomplete_factorisations() - factorised;
     c_.ppe_lagged_retries += last_solve_.lagged_retry;
     c_.ppe_fallbacks += last_solve_.fallback;
     c_.ppe_breakdown_restarts += last_solve_.breakdown_restart;
@@ -1755,6 +1763,14 @@ class lsmps_semi_implicit {
         const index_t ip = parent(k);
         pres[k] = pres[ip] - (x.col(ip) - x.col(k)).dot(normal_.col(k)) * dpdn_[k];
       }
+  }
+
+  /// ILUT or ILU(0) factorisations the pressure solver (or, behind ppe::with_fallback, its primary) has made so
+  /// far; 0 for solvers without incomplete factors.
+  long incomplete_factorisations() {
+    if constexpr (requires { solver_.factorisations(); }) return solver_.factorisations();
+    else if constexpr (requires { solver_.primary().factorisations(); }) return solver_.primary().factorisations();
+    else return 0;
   }
 
   /// True when this step's unknowns are the previous step's, in the same order: fluid rows by particle id,
