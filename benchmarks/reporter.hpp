@@ -236,9 +236,18 @@ class reporter {
   /// Plots `metric_name` against median wall time (log scale), one line per series, each point labelled
   /// with its configuration name minus the series prefix; writes `<png>.dat` and `<png>.gp` beside the
   /// PNG and runs gnuplot. `log_y` puts the metric on a log scale too. Returns false (with a message on
-  /// `log`) when gnuplot is missing or fails.
+  /// `log`) when no run has a value to plot (finite, and > 0 with log_y: e.g. a study of the reference alone,
+  /// whose error against itself is 0), or when gnuplot is missing or fails.
   bool write_plot(const std::filesystem::path& png, const std::string& metric_name, std::ostream& log = std::cout,
                   bool log_y = false) const {
+    if (std::none_of(records_.begin(), records_.end(), [&](const run_record& r) {
+          const double v = value(r, metric_name);
+          return std::isfinite(v) && std::isfinite(r.wall_median) && r.wall_median > 0.0 && (!log_y || v > 0.0);
+        })) {
+      log << "reporter: no run has a " << (log_y ? "positive " : "") << "finite " << metric_name
+          << " to plot: no picture '" << png.string() << "'\n";
+      return false;
+    }
     std::map<std::string, std::vector<const run_record*>> by_series;
     std::vector<std::string> order;
     for (const run_record& r : records_) {
@@ -279,7 +288,8 @@ class reporter {
     }
     const std::string cmd = "gnuplot '" + gp.string() + "'";
     if (std::system(cmd.c_str()) != 0) {
-      log << "reporter: '" << cmd << "' failed (is gnuplot installed? apt-get install gnuplot-nox)\n";
+      log << "reporter: '" << cmd << "' failed (its message is above; is gnuplot installed? apt-get install "
+             "gnuplot-nox)\n";
       return false;
     }
     return true;
