@@ -30,6 +30,11 @@ struct tanaka_run_counts {
   long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
   long collisions = 0;              ///< colliding pairs of the collision stage (lsmps_params::collision)
   long left_domain = 0;             ///< particles removed over the side walls (tanaka_dam_break_config::remove_outside)
+  long active_set_solves = 0;       ///< PPE solves repeated by the active set (lsmps_counters::active_set_solves)
+  /// The solve ledger: pressure solves and the ILUT / ILU(0) factorisations among them (lsmps_counters::ppe_solves,
+  /// ppe_factorisations; 0 factorisations for BiCGSTAB-Jacobi), and lagged-factor solves repeated with fresh factors
+  /// (lsmps_counters::ppe_lagged_retries, solver_params::ilut_reuse).
+  long ppe_solves = 0, ppe_factorisations = 0, ppe_lagged_retries = 0;
   /// Copies them from the scheme's counters (scheme::lsmps_counters).
   template <class Counters>
   void read_counts(const Counters& k) {
@@ -39,6 +44,10 @@ struct tanaka_run_counts {
     active_set_unfinished = k.active_set_unfinished;
     collisions = k.collisions;
     left_domain = k.left_domain;
+    active_set_solves = k.active_set_solves;
+    ppe_solves = k.ppe_solves;
+    ppe_factorisations = k.ppe_factorisations;
+    ppe_lagged_retries = k.ppe_lagged_retries;
   }
 };
 
@@ -71,11 +80,6 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
   long ppe_cold_restarts = 0;  ///< warm-started solves repeated from 0 after not converging (solver_params)
-  /// Pressure solves (steps + active-set and own-loop repeats) and the ILUT / ILU(0) factorisations among them
-  /// (lsmps_counters::ppe_solves, ppe_factorisations; 0 for BiCGSTAB-Jacobi).
-  long ppe_solves = 0, ppe_factorisations = 0;
-  long ppe_lagged_retries = 0;  ///< lagged-factor solves repeated with fresh factors (solver_params::ilut_reuse)
-  long active_set_solves = 0;  ///< PPE solves repeated by the active set (lsmps_counters::active_set_solves)
   long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
   double left_domain_volume = 0.0;  ///< their ΣV (m²)
   double wall_seconds = 0.0;    ///< wall time of the time loop (s)
@@ -417,10 +421,6 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.ppe_fallbacks = sim.counters().ppe_fallbacks;
   r.ppe_breakdown_restarts = sim.counters().ppe_breakdown_restarts;
   r.ppe_cold_restarts = sim.counters().ppe_cold_restarts;
-  r.ppe_solves = sim.counters().ppe_solves;
-  r.ppe_factorisations = sim.counters().ppe_factorisations;
-  r.ppe_lagged_retries = sim.counters().ppe_lagged_retries;
-  r.active_set_solves = sim.counters().active_set_solves;
   r.shift_velocity_clipped = sim.counters().shift_velocity_clipped;
   return r;
 }

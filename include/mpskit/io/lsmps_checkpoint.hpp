@@ -50,7 +50,8 @@ inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.
 /// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
 /// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33, 2026-12-03) or
 /// collision_coincident and shift_coincident (34, 35, 2026-12-03) or left_domain (36, 2026-12-03) or
-/// active_set_released (37, 2026-12-05) or ppe_cold_restarts (38, 2026-12-05): still read, the missing counters 0.
+/// active_set_released (37, 2026-12-05) or ppe_cold_restarts (38, 2026-12-05) or ppe_solves and ppe_factorisations
+/// (39, 40, 2026-12-07): still read, the missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 

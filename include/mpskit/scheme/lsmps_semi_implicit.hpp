@@ -455,10 +455,12 @@ struct lsmps_counters {
   long filter_amplifying = 0;      ///< particle-steps of the band left unfiltered: Σ|w| of their fit > boundary_filter_params::max_amplification
   long filter_tapered = 0;         ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| > boundary_filter_params::taper_amplification
   long left_domain = 0;            ///< particles removed outside lsmps_params::remove_outside (counted at removal)
-  long ppe_solves = 0;             ///< pressure solves (steps + active-set and own-loop repeats; not the floating
-                                   ///< parts' left-null-vector solves); counted since 2026-12-07 (older checkpoints: 0)
+  long ppe_solves = 0;             ///< pressure solves made (one per step, plus the active set's and the own-loop
+                                   ///< guard's repeats, but none for a system with no unknowns: so at most steps +
+                                   ///< active_set_solves + own_loop_solves; not the floating parts' left-null-vector
+                                   ///< solves). Since 2026-12-07: resumed from an older checkpoint, counted from the load
   long ppe_factorisations = 0;     ///< ILUT or ILU(0) factorisations of the pressure solver, a lagged retry's
-                                   ///< included (0 for solvers without incomplete factors); since 2026-12-07
+                                   ///< included (0 for solvers without incomplete factors); since 2026-12-07, as above
   double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
   double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
   double left_domain_volume = 0.0; ///< Σ V removed outside lsmps_params::remove_outside (m^D)
