@@ -1033,6 +1033,10 @@ TEST_SUITE("solver") {
     CHECK(once.cold_restarts() == 0);
   }
 
+  /// A solver that counts its incomplete factorisations (ppe::detail::eigen_iterative, ppe::with_fallback of one).
+  template <class S>
+  concept counts_factorisations = requires(const S& s) { s.factorisations(); };
+
   TEST_CASE("solver: with_fallback solves with the direct solver only when the iterative one fails") {
     // ppe/fallback.hpp with BiCGSTAB-Jacobi and Eigen's SparseLU on a non-symmetric convection-diffusion matrix
     // (20 × 20 grid), b = A u for a known u.
@@ -1089,6 +1093,26 @@ TEST_SUITE("solver") {
     ppe::bicgstab_jacobi plain(sp);
     CHECK_THROWS_WITH_AS(ppe::solve_checked(plain, A, bn, xn, sp, 3, 0.0, row),
                          doctest::Contains("broke down at step 3"), mpskit::error);
+    // The incomplete factorisations are the primary's, counted through with_fallback (the LSMPS stepper's
+    // counters().ppe_factorisations reads them there): none for Jacobi; a primary without the count (a direct
+    // solver) gives with_fallback none either.
+    CHECK(ok.factorisations() == 0);
+    static_assert(!counts_factorisations<ppe::with_fallback<ppe::sparse_lu, ppe::sparse_lu>>);
+    using ilu_fb = ppe::with_fallback<ppe::bicgstab_ilu0, ppe::sparse_lu>;
+    static_assert(counts_factorisations<ilu_fb>);
+    ilu_fb fi(sp);
+    Eigen::VectorXd xi = Eigen::VectorXd::Zero(g * g);
+    CHECK(!ppe::solve_checked(fi, A, b, xi, sp, 4, 0.0, row).fallback);
+    CHECK(fi.factorisations() == 1);
+    Eigen::VectorXd xi2 = Eigen::VectorXd::Zero(g * g);
+    CHECK(!ppe::solve_checked(fi, A, b, xi2, sp, 5, 0.0, row).fallback);  // new unknowns: factorised again
+    CHECK(fi.factorisations() == 2);
+    CHECK(fi.factorisations() == fi.primary().factorisations());
+    ilu_fb fc(capped);  // capped at one iteration: the LU solves, the ILU(0) factors were still made once
+    Eigen::VectorXd xc = Eigen::VectorXd::Zero(g * g);
+    CHECK(ppe::solve_checked(fc, A, b, xc, capped, 6, 0.0, row).fallback);
+    CHECK(fc.factorisations() == 1);
+    CHECK(fc.fallbacks() == 1);
   }
 }
 

@@ -33,6 +33,13 @@ class with_fallback {
   Primary& primary() { return primary_; }
   Fallback& fallback() { return fallback_; }
   long fallbacks() const { return fallbacks_; }  ///< solves the fallback made, so far
+  /// The primary's incomplete factorisations so far (ILUT, ILU(0): ppe::detail::eigen_iterative::factorisations);
+  /// only for a primary that counts them. The fallback's direct factorisations are fallbacks().
+  long factorisations() const
+    requires requires(const Primary& s) { s.factorisations(); }
+  {
+    return primary_.factorisations();
+  }
 
   /// Prepares the primary for A (A must outlive the following solves); a failure of the primary's
   /// preconditioner is not returned but sends the next solve to the fallback.

@@ -1767,11 +1767,10 @@ class lsmps_semi_implicit {
       }
   }
 
-  /// ILUT or ILU(0) factorisations the pressure solver (or, behind ppe::with_fallback, its primary) has made so
-  /// far; 0 for solvers without incomplete factors.
-  long incomplete_factorisations() {
+  /// ILUT or ILU(0) factorisations the pressure solver has made so far (ppe::with_fallback forwards its
+  /// primary's); 0 for solvers without incomplete factors.
+  long incomplete_factorisations() const {
     if constexpr (requires { solver_.factorisations(); }) return solver_.factorisations();
-    else if constexpr (requires { solver_.primary().factorisations(); }) return solver_.primary().factorisations();
     else return 0;
   }
 
