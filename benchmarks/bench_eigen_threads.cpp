@@ -1,14 +1,14 @@
 // Eigen's own threads held to one for systems below exec::parallel_min_items (core/exec.hpp,
-// eigen_threads_scope; docs/solver.md, deviation 7): wall time of the 2D pressure-driven Poiseuille channel with
-// a 2:1 size ratio (examples/cases/poiseuille.hpp, the second case of the `poiseuille_multires` label: 800 → 1900
-// particles, BiCGSTAB–Jacobi on ≈ 1900 unknowns) run with two OpenMP threads, with the hold (the default) and
-// without it (solver_params::parallel_min_rows = 0: Eigen's sparse × dense product goes parallel, as before),
-// on an idle machine and with one busy-looping thread competing for the two cores (a stand-in for another
-// process on a shared machine). Runs alternate between the settings within each repetition, so drift hits them
-// alike, and which runs first alternates between repetitions, after an unmeasured warm-up run; printed: the
-// median wall time per setting and the median over repetitions of the ratio of "without" to "with" measured in
-// the same repetition, and the errors (identical: the hold changes no result). Run from
-// the repository root:
+// eigen_threads_scope; docs/solver.md, deviation 7): wall time of the 2D pressure-driven Poiseuille channel
+// with a 2:1 size ratio (examples/cases/poiseuille.hpp, the second case of the `poiseuille_multires` label:
+// 800 → 1900 particles, BiCGSTAB–Jacobi on ≈ 1900 unknowns) run with two OpenMP threads, with the hold (the
+// default) and without it (solver_params::parallel_min_rows = 0: Eigen's sparse × dense product goes
+// parallel, as before), on an idle machine and with one busy-looping thread competing for the two cores (a
+// stand-in for another process on a shared machine). Runs alternate between the settings within each
+// repetition, so drift hits them alike, and which runs first alternates between repetitions, after an
+// unmeasured warm-up run; printed: the median wall time per setting and the median over repetitions of the
+// ratio of "without" to "with" measured in the same repetition, and the errors (identical: the hold changes
+// no result). Run from the repository root:
 //
 //   OMP_NUM_THREADS=2 build/bench/benchmarks/bench_eigen_threads --repetitions 4
 //
@@ -55,8 +55,8 @@ int main(int argc, char** argv) {
   if (!o.parse(argc, argv, "bench_eigen_threads")) return 2;
   const int reps = o.repetitions;
   const double t_end = o.t_end;
-  std::printf("bench_eigen_threads (%s), %d OpenMP threads, %d repetitions, t_end %.3f s\n", MPSKIT_BENCH_FLAGS,
-              max_threads(), reps, t_end);
+  std::printf("bench_eigen_threads (%s), %d OpenMP threads, %d repetitions, t_end %.3f s\n",
+              MPSKIT_BENCH_FLAGS, max_threads(), reps, t_end);
   for (const bool loaded : {false, true}) {
     std::atomic<bool> stop{false};
     std::thread competitor;
@@ -70,8 +70,8 @@ int main(int argc, char** argv) {
     double e_with = 0.0, e_without = 0.0;
     for (int r = 0; r < reps; ++r) {
       // The order alternates between repetitions (held first in even ones): the first run after a change of
-      // load was measured 19 % slower than the second with nothing else different (OMP_NUM_THREADS=1, where both
-      // settings are the same code path).
+      // load was measured 19 % slower than the second with nothing else different (OMP_NUM_THREADS=1, where
+      // both settings are the same code path).
       sample h, u;
       if (r % 2 == 0) {
         h = run(true, t_end);
@@ -85,18 +85,19 @@ int main(int argc, char** argv) {
       ratio.push_back(u.seconds / h.seconds);
       e_with = h.error;
       e_without = u.error;
-      std::printf("  %s repetition %d: held %.2f s, not held %.2f s\n", loaded ? "loaded" : "idle", r, h.seconds,
-                  u.seconds);
+      std::printf("  %s repetition %d: held %.2f s, not held %.2f s\n", loaded ? "loaded" : "idle", r,
+                  h.seconds, u.seconds);
       std::fflush(stdout);
     }
     if (loaded) {
       stop = true;
       competitor.join();
     }
-    std::printf("| %s | held: median %.2f s | not held: median %.2f s | not held / held (median of ratios) %.2f | "
-                "error %.6f / %.6f |\n",
-                loaded ? "one competing thread" : "idle", median(with), median(without), median(ratio), e_with,
-                e_without);
+    std::printf(
+        "| %s | held: median %.2f s | not held: median %.2f s | not held / held (median of ratios) %.2f | "
+        "error %.6f / %.6f |\n",
+        loaded ? "one competing thread" : "idle", median(with), median(without), median(ratio), e_with,
+        e_without);
   }
   return 0;
 }

@@ -1,14 +1,15 @@
-// BiCGSTAB with ILU(0) (ppe/ilu0.hpp, ppe::bicgstab_ilu0) against the LSMPS default BiCGSTAB-Jacobi on Tanaka's 2D
-// dam break (examples/cases/tanaka_dam_break_run.hpp, lsmps_impact_params, the options of issue #9's tests):
-//   dam4: L = 4 mm refined 2:1 toward the far corner (the dam_break_multires test's multi-resolution run), to T = 1.5;
-//   dam2: L = 2 mm, single resolution (5000 particles), to T = 0.6.
+// BiCGSTAB with ILU(0) (ppe/ilu0.hpp, ppe::bicgstab_ilu0) against the LSMPS default BiCGSTAB-Jacobi on
+// Tanaka's 2D dam break (examples/cases/tanaka_dam_break_run.hpp, lsmps_impact_params, the options of issue
+// #9's tests):
+//   dam4: L = 4 mm refined 2:1 toward the far corner (the dam_break_multires test's multi-resolution run), to
+//   T = 1.5; dam2: L = 2 mm, single resolution (5000 particles), to T = 0.6.
 // Settings: Jacobi; ILU(0) with the default lag (solver_params::ilut_reuse = 4, same unknowns only); ILU(0)
-// factorised at every solve (ilut_reuse = 1). Runs alternate between the settings within each repetition, so the
-// machine's drift hits all of them alike; printed per setting: the median wall time, the median over repetitions
-// of the ratio to Jacobi measured in the same repetition, the PPE iterations (per repetition also the pressure solves
-// and the ILU(0) factorisations among them), and the front at the end (the
-// solvers reach the same tolerance, so the runs agree to the solver's rounding; a chaotic run may drift later).
-// Run from the repository root, with the thread count to measure:
+// factorised at every solve (ilut_reuse = 1). Runs alternate between the settings within each repetition, so
+// the machine's drift hits all of them alike; printed per setting: the median wall time, the median over
+// repetitions of the ratio to Jacobi measured in the same repetition, the PPE iterations (per repetition also
+// the pressure solves and the ILU(0) factorisations among them), and the front at the end (the solvers reach
+// the same tolerance, so the runs agree to the solver's rounding; a chaotic run may drift later). Run from
+// the repository root, with the thread count to measure:
 //
 //   OMP_NUM_THREADS=1 build/benchmarks/bench_ilu0 --repetitions 3
 //
@@ -86,16 +87,18 @@ int main(int argc, char** argv) {
         secs[k].push_back(s.seconds);
         this_rep.push_back(s.seconds);
         last[k] = s;
-        std::printf("  %s %s repetition %d: %.2f s, %ld steps, %ld PPE iterations, %ld solves, %ld factorisations, "
-                    "front %.6f\n",
-                    name.c_str(), label[k].c_str(), r, s.seconds, s.steps, s.iterations, s.solves, s.factorisations,
-                    s.front);
+        std::printf(
+            "  %s %s repetition %d: %.2f s, %ld steps, %ld PPE iterations, %ld solves, %ld factorisations, "
+            "front %.6f\n",
+            name.c_str(), label[k].c_str(), r, s.seconds, s.steps, s.iterations, s.solves, s.factorisations,
+            s.front);
         std::fflush(stdout);
       }
       for (std::size_t k = 0; k < label.size(); ++k) ratio[k].push_back(this_rep[k] / this_rep[0]);
     }
-    std::printf("%s: | solver | median wall (s) | median time / Jacobi | PPE iterations | front at the end |\n",
-                name.c_str());
+    std::printf(
+        "%s: | solver | median wall (s) | median time / Jacobi | PPE iterations | front at the end |\n",
+        name.c_str());
     for (std::size_t k = 0; k < label.size(); ++k)
       std::printf("%s: | %s | %.2f | %.3f | %ld | %.6f |\n", name.c_str(), label[k].c_str(), median(secs[k]),
                   median(ratio[k]), last[k].iterations, last[k].front);

@@ -1,14 +1,15 @@
-// ppe::incomplete_lut (ppe/ilut.hpp), through which ppe::bicgstab and ppe::gmres precondition since 2026-12-07,
-// against Eigen's IncompleteLUT, which they used before; the factors are the same, bit for bit:
-//   kernel: the factorisation alone (AMD ordering included) of a synthetic matrix shaped like a 3D LSMPS PPE (a 14³
-//           grid, each point coupled to the points within 2.1 spacings: up to 32 neighbours, 28.5 entries per row
-//           on average; random non-symmetric weights, a diagonal 1.02 × the row's off-diagonal sum) with the library's ILUT setting (drop 1e-4, fill 2), the
-//           3D duct's (drop 1e-3, fill 2) and Eigen's defaults (drop 1e-12, fill 10); 5 factorisations per timing;
-//   duct:   the 3D duct of label poiseuille_multires (cases::refine_duct_walls, to 0.02 s) with ppe::bicgstab and
-//           with the same solver preconditioned by Eigen's IncompleteLUT.
-// The two settings alternate within each repetition; printed: median times, the median over repetitions of the
-// ratio measured in the same repetition, and whether the two give the same bits (kernel: the factors' values,
-// column indices and row starts; duct: the steps, particle counts and errors).
+// ppe::incomplete_lut (ppe/ilut.hpp), through which ppe::bicgstab and ppe::gmres precondition since
+// 2026-12-07, against Eigen's IncompleteLUT, which they used before; the factors are the same, bit for bit:
+//   kernel: the factorisation alone (AMD ordering included) of a synthetic matrix shaped like a 3D LSMPS PPE
+//           (a 14³ grid, each point coupled to the points within 2.1 spacings: up to 32 neighbours, 28.5
+//           entries per row on average; random non-symmetric weights, a diagonal 1.02 × the row's
+//           off-diagonal sum) with the library's ILUT setting (drop 1e-4, fill 2), the 3D duct's (drop 1e-3,
+//           fill 2) and Eigen's defaults (drop 1e-12, fill 10); 5 factorisations per timing;
+//   duct:   the 3D duct of label poiseuille_multires (cases::refine_duct_walls, to 0.02 s) with ppe::bicgstab
+//           and with the same solver preconditioned by Eigen's IncompleteLUT.
+// The two settings alternate within each repetition; printed: median times, the median over repetitions of
+// the ratio measured in the same repetition, and whether the two give the same bits (kernel: the factors'
+// values, column indices and row starts; duct: the steps, particle counts and errors).
 //
 //   OMP_NUM_THREADS=1 build/benchmarks/bench_ilut --repetitions 5
 //
@@ -31,9 +32,10 @@ namespace {
 
 /// The 3D duct's scene with Eigen's IncompleteLUT (the solver before 2026-12-07).
 struct eigen_ilut_duct_scene : cases::duct_pressure_multires_scene {
-  using solver = ppe::detail::eigen_iterative<
-      ppe::detail::bicgstab_interleaved<ppe::detail::lagged_preconditioner<Eigen::IncompleteLUT<double, std::ptrdiff_t>>>,
-      false>;
+  using solver =
+      ppe::detail::eigen_iterative<ppe::detail::bicgstab_interleaved<ppe::detail::lagged_preconditioner<
+                                       Eigen::IncompleteLUT<double, std::ptrdiff_t>>>,
+                                   false>;
 };
 
 /// The factors of either class (protected members).
@@ -55,8 +57,8 @@ ppe::matrix grid_3d(int g, unsigned seed) {
           for (int b = -2; b <= 2; ++b)
             for (int c = -2; c <= 2; ++c) {
               const int x = i + a, y = j + b, z = k + c;
-              if ((a == 0 && b == 0 && c == 0) || a * a + b * b + c * c > 4.41 || x < 0 || y < 0 || z < 0 || x >= g ||
-                  y >= g || z >= g)
+              if ((a == 0 && b == 0 && c == 0) || a * a + b * b + c * c > 4.41 || x < 0 || y < 0 || z < 0 ||
+                  x >= g || y >= g || z >= g)
                 continue;
               const double v = w(rng);
               t.emplace_back(id(i, j, k), id(x, y, z), -v);
@@ -102,10 +104,11 @@ int main(int argc, char** argv) {
                std::equal(le.innerIndexPtr(), le.innerIndexPtr() + le.nonZeros(), lm.innerIndexPtr()) &&
                std::memcmp(le.valuePtr(), lm.valuePtr(), sizeof(double) * std::size_t(le.nonZeros())) == 0;
       }
-      std::printf("kernel drop %.0e fill %d: %ld rows, %ld entries, factors %ld: Eigen %.4f s, ours %.4f s (5 "
-                  "factorisations, medians), median ratio %.3f, same factors %s\n",
-                  drop, fill, long(A.rows()), long(A.nonZeros()), long(e.lu().nonZeros()), median(te), median(tm),
-                  median(ratio), same ? "yes" : "NO");
+      std::printf(
+          "kernel drop %.0e fill %d: %ld rows, %ld entries, factors %ld: Eigen %.4f s, ours %.4f s (5 "
+          "factorisations, medians), median ratio %.3f, same factors %s\n",
+          drop, fill, long(A.rows()), long(A.nonZeros()), long(e.lu().nonZeros()), median(te), median(tm),
+          median(ratio), same ? "yes" : "NO");
       std::fflush(stdout);
     }
   }
@@ -127,9 +130,10 @@ int main(int argc, char** argv) {
                   e.wall_seconds, m.wall_seconds, m.steps, m.max_error);
       std::fflush(stdout);
     }
-    std::printf("duct: Eigen's ILUT %.2f s, ours %.2f s (medians), median ratio %.3f, same steps, particles and "
-                "errors %s\n",
-                median(te), median(tm), median(ratio), same ? "yes" : "NO");
+    std::printf(
+        "duct: Eigen's ILUT %.2f s, ours %.2f s (medians), median ratio %.3f, same steps, particles and "
+        "errors %s\n",
+        median(te), median(tm), median(ratio), same ? "yes" : "NO");
   }
   return 0;
 }

@@ -1,13 +1,14 @@
-// The interleaved sparse product (ppe/interleaved_product.hpp), through which the BiCGSTAB solvers multiply since
-// 2026-12-07, against Eigen's row-major sparse × dense product, which they used before:
-//   kernel: y = A x on synthetic matrices shaped like the 2D LSMPS PPE (rows of 20–31 entries within ±60 columns of
-//           the diagonal, 2203 rows) and like a 3D one (rows of 46–57 entries, 1201 rows); each timing is 400 products;
+// The interleaved sparse product (ppe/interleaved_product.hpp), through which the BiCGSTAB solvers multiply
+// since 2026-12-07, against Eigen's row-major sparse × dense product, which they used before:
+//   kernel: y = A x on synthetic matrices shaped like the 2D LSMPS PPE (rows of 20–31 entries within ±60
+//           columns of the diagonal, 2203 rows) and like a 3D one (rows of 46–57 entries, 1201 rows); each
+//           timing is 400 products;
 //   dam3:   Tanaka's 2D dam break at L = 3 mm with lsmps_impact_params (the dam_break_lsmps test's run, 2211
-//           particles), to T = 1.5, with the default BiCGSTAB-Jacobi (interleaved) and the same solver multiplying
-//           through Eigen's product.
-// The two settings alternate within each repetition; printed: median times, the median over repetitions of the
-// ratio measured in the same repetition, and whether the two give the same bits (kernel: every entry; dam3: the
-// steps, the PPE iterations and every front sample).
+//           particles), to T = 1.5, with the default BiCGSTAB-Jacobi (interleaved) and the same solver
+//           multiplying through Eigen's product.
+// The two settings alternate within each repetition; printed: median times, the median over repetitions of
+// the ratio measured in the same repetition, and whether the two give the same bits (kernel: every entry;
+// dam3: the steps, the PPE iterations and every front sample).
 //
 //   OMP_NUM_THREADS=1 build/benchmarks/bench_interleaved_product --repetitions 5
 //
@@ -30,7 +31,9 @@ namespace {
 
 /// The LSMPS default with its solver multiplying through Eigen's product (the solver before 2026-12-07).
 struct eigen_product_scene : lsmps_defaults<2> {
-  using solver = ppe::detail::eigen_iterative<Eigen::BiCGSTAB<ppe::matrix, Eigen::DiagonalPreconditioner<double>>, false>;
+  using solver =
+      ppe::detail::eigen_iterative<Eigen::BiCGSTAB<ppe::matrix, Eigen::DiagonalPreconditioner<double>>,
+                                   false>;
 };
 
 ppe::matrix synthetic(long n, int base, unsigned seed) {
@@ -70,7 +73,8 @@ int main(int argc, char** argv) {
         auto t0 = std::chrono::steady_clock::now();
         for (int k = 0; k < 400; ++k) {
           ye.noalias() = R * x;
-          x[k % n] += 1e-3 * ye[(k * 7) % n] / (1.0 + std::abs(ye[(k * 7) % n]));  // a dependence: no hoisting
+          x[k % n] +=
+              1e-3 * ye[(k * 7) % n] / (1.0 + std::abs(ye[(k * 7) % n]));  // a dependence: no hoisting
         }
         te.push_back(seconds_since(t0));
         x = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0);
@@ -91,9 +95,10 @@ int main(int argc, char** argv) {
         same = same && std::memcmp(xe.data(), x.data(), sizeof(double) * std::size_t(n)) == 0;
         x = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0);
       }
-      std::printf("kernel %s: %ld rows, %ld entries: Eigen %.4f s, interleaved %.4f s (400 products, medians), "
-                  "median ratio %.3f, same bits %s\n",
-                  name, n, long(A.nonZeros()), median(te), median(ti), median(ratio), same ? "yes" : "NO");
+      std::printf(
+          "kernel %s: %ld rows, %ld entries: Eigen %.4f s, interleaved %.4f s (400 products, medians), "
+          "median ratio %.3f, same bits %s\n",
+          name, n, long(A.nonZeros()), median(te), median(ti), median(ratio), same ? "yes" : "NO");
     }
   }
   if (which.find("dam3") != std::string::npos) {
@@ -109,13 +114,17 @@ int main(int argc, char** argv) {
       ti.push_back(i.wall_seconds);
       ratio.push_back(i.wall_seconds / e.wall_seconds);
       same = same && e.steps == i.steps && e.ppe_iterations == i.ppe_iterations && e.Z == i.Z;
-      std::printf("  dam3 repetition %d: Eigen's product %.2f s, interleaved %.2f s (%ld steps, %ld PPE iterations)\n",
-                  r, e.wall_seconds, i.wall_seconds, i.steps, i.ppe_iterations);
+      std::printf(
+          "  dam3 repetition %d: Eigen's product %.2f s, interleaved %.2f s (%ld steps, %ld PPE "
+          "iterations)\n",
+          r, e.wall_seconds, i.wall_seconds, i.steps, i.ppe_iterations);
       std::fflush(stdout);
     }
-    std::printf("dam3: Eigen's product %.2f s, interleaved %.2f s (medians), median ratio %.3f, same steps, iterations "
-                "and fronts %s\n",
-                median(te), median(ti), median(ratio), same ? "yes" : "NO");
+    std::printf(
+        "dam3: Eigen's product %.2f s, interleaved %.2f s (medians), median ratio %.3f, same steps, "
+        "iterations "
+        "and fronts %s\n",
+        median(te), median(ti), median(ratio), same ? "yes" : "NO");
   }
   return 0;
 }

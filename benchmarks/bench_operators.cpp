@@ -39,7 +39,8 @@ constexpr std::uint64_t seed = 20181001;
 template <int D>
 points<D> jittered_lattice(int side, double h, double jitter, std::uint64_t s) {
   std::mt19937_64 rng(s);
-  return mpskit::test::jittered_lattice<D>(side, h, jitter, rng);  // tests/support: one lattice for tests and benchmarks
+  return mpskit::test::jittered_lattice<D>(side, h, jitter,
+                                           rng);  // tests/support: one lattice for tests and benchmarks
 }
 
 /// One shared setup per dimension (n ≈ 1e5): positions, list at 3.1 l0, a smooth field.

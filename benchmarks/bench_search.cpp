@@ -177,8 +177,8 @@ void csr_build_mixed(benchmark::State& st) {
 
 // ---- (3) sweep: classic MPS Laplacian of a scalar field over the stored list ----------------------------
 // List built at re (1 + 0.1 skin); the sweep reads it at re (support 3.1 l0, rule own). ns per pair
-// counted as the pairs with r < re (per_pair). Arg 1: 0 = op::mps<2, kernel::classic>::laplacian, 1 = a hand loop
-// through list.for_each_neighbour with the same arithmetic (bitwise the same result, checked).
+// counted as the pairs with r < re (per_pair). Arg 1: 0 = op::mps<2, kernel::classic>::laplacian, 1 = a hand
+// loop through list.for_each_neighbour with the same arithmetic (bitwise the same result, checked).
 struct sweep_fixture {
   const points<2>* x = nullptr;
   search::neighbour_list<2> nl;
@@ -255,7 +255,8 @@ void sweep_mixed(benchmark::State& st) {
   Eigen::VectorXd phi(n), lap(n);
   for (index_t i = 0; i < n; ++i) phi[i] = x(0, i) * x(0, i) + 0.5 * x(1, i);
   index_t pairs = 0;
-  for (index_t i = 0; i < n; ++i) nl.for_each_neighbour(x, i, sup, [&](index_t, const mpskit::vec<2>&, double) { ++pairs; });
+  for (index_t i = 0; i < n; ++i)
+    nl.for_each_neighbour(x, i, sup, [&](index_t, const mpskit::vec<2>&, double) { ++pairs; });
   for (auto _ : st) {
     mpskit::for_each_particle(exec::par{}, n, [&](index_t i) {
       double s = 0.0;
@@ -324,9 +325,15 @@ BENCHMARK(cell_build)->ArgNames({"n", "shuffled", "reorder"})->Apply([](benchmar
       for (std::int64_t r : {0, 1}) b->Args({n, s, r});
   b->UseRealTime()->Unit(benchmark::kMillisecond);
 });
-BENCHMARK(csr_build)->ArgNames({"n", "skin_permille"})->Apply([](benchmark::internal::Benchmark* b) { sizes_x(b, {0, 100}); });
-BENCHMARK(csr_build_mixed)->ArgNames({"n", "skin_permille"})->Apply([](benchmark::internal::Benchmark* b) { sizes_x(b, {0, 100}); });
-BENCHMARK(sweep)->ArgNames({"n", "hand"})->Apply([](benchmark::internal::Benchmark* b) { sizes_x(b, {0, 1}); });
+BENCHMARK(csr_build)->ArgNames({"n", "skin_permille"})->Apply([](benchmark::internal::Benchmark* b) {
+  sizes_x(b, {0, 100});
+});
+BENCHMARK(csr_build_mixed)->ArgNames({"n", "skin_permille"})->Apply([](benchmark::internal::Benchmark* b) {
+  sizes_x(b, {0, 100});
+});
+BENCHMARK(sweep)->ArgNames({"n", "hand"})->Apply([](benchmark::internal::Benchmark* b) {
+  sizes_x(b, {0, 1});
+});
 BENCHMARK(sweep_mixed)->ArgNames({"n"})->Apply([](benchmark::internal::Benchmark* b) { sizes_x(b, {}); });
 BENCHMARK(kdtree_query)->ArgNames({"n"})->Apply([](benchmark::internal::Benchmark* b) { sizes_x(b, {}); });
 BENCHMARK(kdtree_build)->ArgNames({"n"})->Apply([](benchmark::internal::Benchmark* b) { sizes_x(b, {}); });

@@ -7,22 +7,24 @@
 // Options: --levels N1,N2,... (l0 = a/N), --solvers cg_ichol[,cholmod][,umfpack], --repetitions R,
 // --T-end T (dimensionless, default 3), --out DIR (default benchmarks/results), --data DIR (default
 // tests/data/dam_break_front of the source tree), --lsmps-levels N1,... (Tanaka's dam break with the LSMPS
-// scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A order,
-// default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points]
+// scheme, L = h0/N, h0 = 100 mm; default 20,25; an empty list "" skips it), --lsmps-orders 2[,3] (LSMPS-A
+// order, default 2), --lsmps-T-end T (default: --T-end), --lsmps-walls parent_gradient[,neumann_points]
 // [,two_point_wall_only][,two_point_wall_only_active_set] (the LSMPS wall rows: lsmps_params::copy_row, or
 // copy_two_point = 1 with wall-only shifting, optionally with active_set_solves = 10; any name of
 // cases::tanaka_wall_variants; default parent_gradient, the library's default), --lsmps-collision ALPHA1 (the
 // opt-in collision stage, lsmps_params::collision.alpha1; default 0: off), --lsmps-collide-isolated (isolated
 // particles collide too), --lsmps-shift-isolated (isolated particles in the shifting penalty,
-// lsmps_params::shift_isolated_penalty): the last three as the main example (examples/multires_dam_break.cpp).
+// lsmps_params::shift_isolated_penalty): the last three as the main example
+// (examples/multires_dam_break.cpp).
 //
 // The LSMPS case (cases/tanaka_dam_break_run.hpp, issue #7) has the same shape as Koshizuka & Oka's (vessel
-// 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data in
-// the same (T, Z). A run that fails before T_end is reported with NaN front errors (not plotted), the metric
-// "completed" = 0 (1 when it reached T_end), T_reached/100 and its samples in dam_break_fronts.csv. The LSMPS
-// runs also report the probe at (195, 5) mm (issue #7): T when it gets wet, and over the 10 ms after that the
-// pressure impulse, the 2 ms moving-average peak and the peak of every 100th step (Tanaka's sampling), each /100,
-// and the closest fluid pair over the run (min_pair_r/L/100, cases::min_pair_ratio: clustering).
+// 4 h0 wide, column h0 × 2 h0; h0 = 100 mm instead of a = 146 mm), so both are plotted against the same data
+// in the same (T, Z). A run that fails before T_end is reported with NaN front errors (not plotted), the
+// metric "completed" = 0 (1 when it reached T_end), T_reached/100 and its samples in dam_break_fronts.csv.
+// The LSMPS runs also report the probe at (195, 5) mm (issue #7): T when it gets wet, and over the 10 ms
+// after that the pressure impulse, the 2 ms moving-average peak and the peak of every 100th step (Tanaka's
+// sampling), each /100, and the closest fluid pair over the run (min_pair_r/L/100, cases::min_pair_ratio:
+// clustering).
 //
 // Error metric (docs/validation.md): at every front sample T_k ≤ T_end (ΔT = 0.05), Z_ref(T_k) is the
 // mean of the data series defined at T_k (Martin & Moyce 1952 two scales, Koshizuka & Oka 1996;
@@ -110,8 +112,8 @@ std::vector<bench::metric> front_errors(const std::vector<front_sample>& v) {
 /// Front samples of each configuration's first run (written to dam_break_fronts.csv).
 std::map<std::string, std::vector<front_sample>> g_fronts;
 
-/// The reporter's outcome of a run result R (cases::dam_break_result or tanaka_dam_break_result): counts, wall
-/// time, front errors over T ≤ min(3, T_end); the samples of the configuration's first run are kept.
+/// The reporter's outcome of a run result R (cases::dam_break_result or tanaka_dam_break_result): counts,
+/// wall time, front errors over T ≤ min(3, T_end); the samples of the configuration's first run are kept.
 template <class R>
 bench::run_outcome outcome_of(const R& r, const std::vector<cases::front_series>& data, double T_end,
                               const std::string& name) {
@@ -127,7 +129,8 @@ bench::run_outcome outcome_of(const R& r, const std::vector<cases::front_series>
 }
 
 template <class Scene>
-bench::configuration make(const std::string& solver, int N, double T_end, const std::vector<cases::front_series>* data) {
+bench::configuration make(const std::string& solver, int N, double T_end,
+                          const std::vector<cases::front_series>* data) {
   cases::dam_break_config cfg;
   cfg.l0 = cfg.a / N;
   cfg.T_end = T_end;
@@ -215,7 +218,8 @@ int main(int argc, char** argv) try {
   solvers.push_back("cholmod");
 #endif
   std::vector<int> lsmps_levels{20, 25}, lsmps_orders{2};
-  std::vector<const cases::tanaka_wall_variant*> lsmps_walls{&cases::tanaka_wall_variant_named("parent_gradient", "report_dam_break --lsmps-walls")};
+  std::vector<const cases::tanaka_wall_variant*> lsmps_walls{
+      &cases::tanaka_wall_variant_named("parent_gradient", "report_dam_break --lsmps-walls")};
   int reps = 3;
   double T_end = 3.0, lsmps_T_end = -1.0;
   lsmps_extras extras;
@@ -255,10 +259,12 @@ int main(int argc, char** argv) try {
       }
     } else if (a == "--lsmps-walls") {
       lsmps_walls.clear();
-      for (const std::string& w : split(next())) lsmps_walls.push_back(&cases::tanaka_wall_variant_named(w, "report_dam_break --lsmps-walls"));
+      for (const std::string& w : split(next()))
+        lsmps_walls.push_back(&cases::tanaka_wall_variant_named(w, "report_dam_break --lsmps-walls"));
     } else if (a == "--lsmps-T-end") {
       lsmps_T_end = bench::parse_number("--lsmps-T-end", next(), 0.0);
-      if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0)) fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
+      if (!(lsmps_T_end > 0.0 && lsmps_T_end <= 10.0))
+        fail("report_dam_break: --lsmps-T-end ", lsmps_T_end, " outside (0, 10]");
     } else if (a == "--lsmps-collision") {
       extras.alpha1 = bench::parse_number("--lsmps-collision", next(), 0.0);
     } else if (a == "--lsmps-collide-isolated") {
@@ -271,7 +277,8 @@ int main(int argc, char** argv) try {
       data_dir = next();
     } else {
       fail("report_dam_break: unknown option '", a,
-           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, --lsmps-walls, --lsmps-collision, --lsmps-collide-isolated, "
+           "' (--levels, --solvers, --repetitions, --T-end, --lsmps-levels, --lsmps-orders, --lsmps-T-end, "
+           "--lsmps-walls, --lsmps-collision, --lsmps-collide-isolated, "
            "--lsmps-shift-isolated, --out, --data)");
     }
   }
@@ -291,12 +298,15 @@ int main(int argc, char** argv) try {
         rep.add(make<umfpack_scene>(s, N, T_end, &data));
 #endif
       } else {
-        fail("report_dam_break: solver '", s, "' is not available (cg_ichol; cholmod, umfpack with SuiteSparse)");
+        fail("report_dam_break: solver '", s,
+             "' is not available (cg_ichol; cholmod, umfpack with SuiteSparse)");
       }
     }
   if (lsmps_T_end < 0.0) lsmps_T_end = T_end;
   if (extras.collide_isolated && !(extras.alpha1 > 0.0))
-    fail("report_dam_break: --lsmps-collide-isolated needs the collision stage on (--lsmps-collision ALPHA1 > 0)");
+    fail(
+        "report_dam_break: --lsmps-collide-isolated needs the collision stage on (--lsmps-collision ALPHA1 > "
+        "0)");
   for (const cases::tanaka_wall_variant* w : lsmps_walls)
     for (int q : lsmps_orders)
       for (int N : lsmps_levels) {
@@ -314,7 +324,8 @@ int main(int argc, char** argv) try {
     if (!f) fail("report_dam_break: cannot write '", fronts.string(), "'");
     f << std::setprecision(8) << "configuration,T,Z,Z_ref,e\n";
     for (const auto& r : rep.records())
-      for (const front_sample& x : g_fronts[r.name]) f << r.name << ',' << x.T << ',' << x.Z << ',' << x.Zref << ',' << x.e << '\n';
+      for (const front_sample& x : g_fronts[r.name])
+        f << r.name << ',' << x.T << ',' << x.Z << ',' << x.Zref << ',' << x.e << '\n';
     std::cout << "wrote " << fronts.string() << "\n";
   }
   std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";

@@ -1,39 +1,43 @@
 // Speed against error on Tanaka's dam break with the 10 × 10 mm obstacle (§5.6.2; issue #9 "Speed against
-// error"): single resolution over spacings and the main example's multi-resolution run (coarse L, L/ratio around
-// the block; examples/cases/tanaka_obstacle_multires.hpp), each against a finer single-resolution reference run
-// once first, to T_end. Metrics (issue #9): the RMS front error at the reference's samples before the far-wall
-// impact (the reference's first wet sample at the probe (195, 5) mm; the whole run if it never gets there), for the
-// front over every non-isolated particle (front_rms) and over the largest connected body (body_front_rms,
-// io::largest_body: spray clusters ahead of the surge left out; since 2026-12-04, the plotted one), and the
-// error of the pressure impulse of that first impact at the probe (10 ms window from its first wet sample, as the
-// example tanaka_dam_break). (The paper's probe 5 mm above the block is not used: it gets wet under the thin jet
-// over the block, p ≈ 0, so its impulse is near 0, −0.22 Pa s at 4 mm, and relative errors mean nothing.) Writes CSV, Markdown and PNG (benchmarks/reporter.hpp) and the
-// speed-up of each multi-resolution run at equal error for both metrics (benchmarks/speed_up.hpp). Run from the
-// repository root with one thread:
+// error"): single resolution over spacings and the main example's multi-resolution run (coarse L, L/ratio
+// around the block; examples/cases/tanaka_obstacle_multires.hpp), each against a finer single-resolution
+// reference run once first, to T_end. Metrics (issue #9): the RMS front error at the reference's samples
+// before the far-wall impact (the reference's first wet sample at the probe (195, 5) mm; the whole run if it
+// never gets there), for the front over every non-isolated particle (front_rms) and over the largest
+// connected body (body_front_rms, io::largest_body: spray clusters ahead of the surge left out; since
+// 2026-12-04, the plotted one), and the error of the pressure impulse of that first impact at the probe
+// (10 ms window from its first wet sample, as the example tanaka_dam_break). (The paper's probe 5 mm above
+// the block is not used: it gets wet under the thin jet over the block, p ≈ 0, so its impulse is near 0,
+// −0.22 Pa s at 4 mm, and relative errors mean nothing.) Writes CSV, Markdown and PNG
+// (benchmarks/reporter.hpp) and the speed-up of each multi-resolution run at equal error for both metrics
+// (benchmarks/speed_up.hpp). Run from the repository root with one thread:
 //
 //   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_report_obstacle_multires --repetitions 3
 //
-// Options: --reference mm (default 2.5: the finest spacing whose single run gets over the block, docs/resolution.md),
-// --single L1,L2,... (mm, default 5,4,3.33), --multi L/ratio,... (default 5/2), --T T_end (default 2.4), --repetitions
-// R (default 3), --out DIR (default benchmarks/results), --walls NAME (a name of cases::tanaka_wall_variants; default
-// cases::obstacle_walls, the main example's until 2026-12-03; cases::tanaka_impact_walls is its default now), --collision ALPHA1 (the opt-in collision stage, lsmps_params::collision;
-// default 0, off), --collide-isolated 0|1 (collision.isolated; needs --collision), --shift-isolated 0|1
-// (lsmps_params::shift_isolated_penalty, deviation 18), --series DIR (keep every run's front, far-wall probe and
-// counters in DIR/<run>.txt and reuse them: a run whose file exists is loaded, not computed, if the file's
-// configuration key (L, T_end, walls, options, the case's vessel settings, threads, compiler flags) is this one's, else
-// refused; the key does not cover the library's code, so a directory belongs to one build: empty it after changing the
-// code; the reference is the single run of its spacing, so a reference computed once serves later studies, and
-// `--single "" --multi "" --series DIR` runs the reference alone; a loaded run's wall time is the one measured when it
-// was computed, so use --repetitions 1). Results: obstacle_multires_speed_error.* and obstacle_multires_speed_up.csv.
-// The impulse needs a T_end past the reference's impact and its 10 ms window (T ≳ 3.2); with the default 2.4 only the
-// front is compared. The issue's study asks for a 1 mm reference to t = 0.4 s (T = 5.6); what was run is in
-// docs/validation.md "Dam break with the obstacle". A configuration that fails is recorded (not repeated; NaN metrics,
-// `completed` 0, T reached) and the study goes on; a failed reference stops it. --solver jacobi|ilu0 (default jacobi,
-// the LSMPS default BiCGSTAB-Jacobi; ilu0: ppe::bicgstab_ilu0, docs/performance.md "ILU(0) for the LSMPS PPE") is the
-// PPE solver of every run of the invocation, the reference's too; with ilu0 the --series key gains "; solver ilu0"
-// (a Jacobi key is the one from before the option, so older series directories stay valid). --across-changes 0|1
-// (default 0; needs --solver ilu0): ppe::solver_params::ilut_reuse_across_changes, the factors kept when the unknowns
-// change (up to ilut_reuse solves), key "; across changes".
+// Options: --reference mm (default 2.5: the finest spacing whose single run gets over the block,
+// docs/resolution.md), --single L1,L2,... (mm, default 5,4,3.33), --multi L/ratio,... (default 5/2), --T
+// T_end (default 2.4), --repetitions R (default 3), --out DIR (default benchmarks/results), --walls NAME (a
+// name of cases::tanaka_wall_variants; default cases::obstacle_walls, the main example's until 2026-12-03;
+// cases::tanaka_impact_walls is its default now), --collision ALPHA1 (the opt-in collision stage,
+// lsmps_params::collision; default 0, off), --collide-isolated 0|1 (collision.isolated; needs --collision),
+// --shift-isolated 0|1 (lsmps_params::shift_isolated_penalty, deviation 18), --series DIR (keep every run's
+// front, far-wall probe and counters in DIR/<run>.txt and reuse them: a run whose file exists is loaded, not
+// computed, if the file's configuration key (L, T_end, walls, options, the case's vessel settings, threads,
+// compiler flags) is this one's, else refused; the key does not cover the library's code, so a directory
+// belongs to one build: empty it after changing the code; the reference is the single run of its spacing, so
+// a reference computed once serves later studies, and `--single "" --multi "" --series DIR` runs the
+// reference alone; a loaded run's wall time is the one measured when it was computed, so use --repetitions
+// 1). Results: obstacle_multires_speed_error.* and obstacle_multires_speed_up.csv. The impulse needs a T_end
+// past the reference's impact and its 10 ms window (T ≳ 3.2); with the default 2.4 only the front is
+// compared. The issue's study asks for a 1 mm reference to t = 0.4 s (T = 5.6); what was run is in
+// docs/validation.md "Dam break with the obstacle". A configuration that fails is recorded (not repeated; NaN
+// metrics, `completed` 0, T reached) and the study goes on; a failed reference stops it. --solver jacobi|ilu0
+// (default jacobi, the LSMPS default BiCGSTAB-Jacobi; ilu0: ppe::bicgstab_ilu0, docs/performance.md "ILU(0)
+// for the LSMPS PPE") is the PPE solver of every run of the invocation, the reference's too; with ilu0 the
+// --series key gains "; solver ilu0" (a Jacobi key is the one from before the option, so older series
+// directories stay valid). --across-changes 0|1 (default 0; needs --solver ilu0):
+// ppe::solver_params::ilut_reuse_across_changes, the factors kept when the unknowns change (up to ilut_reuse
+// solves), key "; across changes".
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -70,22 +74,28 @@ double number(const std::string& s, const char* what) {
   return v;
 }
 
-/// Issue #9's metrics against the reference: the RMS (and largest) front error at the reference's samples up to
-/// T_impact (the reference's first wet sample at the far-wall probe; the whole run when it never gets there), and
-/// the relative error of the pressure impulse of the first impact at that probe (NaN when the reference has no
-/// complete impact window). Prints the run's impulse and guard activations (not error metrics) to `log`. A run that
-/// fails before T_end keeps its wall time and NaN metrics (bench::record_completion).
-bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cases::tanaka_dam_break_result& ref,
-                              double T_impact, double T_end, const char* name, std::ostream& log) {
+/// Issue #9's metrics against the reference: the RMS (and largest) front error at the reference's samples up
+/// to T_impact (the reference's first wet sample at the far-wall probe; the whole run when it never gets
+/// there), and the relative error of the pressure impulse of the first impact at that probe (NaN when the
+/// reference has no complete impact window). Prints the run's impulse and guard activations (not error
+/// metrics) to `log`. A run that fails before T_end keeps its wall time and NaN metrics
+/// (bench::record_completion).
+bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r,
+                              const cases::tanaka_dam_break_result& ref, double T_impact, double T_end,
+                              const char* name, std::ostream& log) {
   const cases::front_difference d = cases::compare_fronts(r, ref, T_impact);
-  const cases::front_difference b = cases::compare_fronts(r, ref, T_impact, &cases::tanaka_dam_break_result::Z_body);
+  const cases::front_difference b =
+      cases::compare_fronts(r, ref, T_impact, &cases::tanaka_dam_break_result::Z_body);
   const cases::impact_measures m = cases::far_wall_impact(r), mr = cases::far_wall_impact(ref);
-  const double impulse_error = mr.complete && m.complete ? std::abs(m.impulse / mr.impulse - 1.0) : std::nan("");
-  log << "    " << name << ": far-wall impulse " << m.impulse << " Pa s" << (m.complete ? "" : " (window incomplete)")
-      << ", 2 ms peak " << m.peak_filtered << " Pa, guard activations " << r.guarded << ", closest pair "
-      << r.min_pair_ratio << " L, largest speed " << r.u_max << " m/s";
-  // Where the PPE's time goes (docs/performance.md "Through the far-wall impact"): solves per step (the active set
-  // and the own-loop guard repeat them), iterations per solve, and incomplete factorisations (ILU(0)) per step.
+  const double impulse_error =
+      mr.complete && m.complete ? std::abs(m.impulse / mr.impulse - 1.0) : std::nan("");
+  log << "    " << name << ": far-wall impulse " << m.impulse << " Pa s"
+      << (m.complete ? "" : " (window incomplete)") << ", 2 ms peak " << m.peak_filtered
+      << " Pa, guard activations " << r.guarded << ", closest pair " << r.min_pair_ratio
+      << " L, largest speed " << r.u_max << " m/s";
+  // Where the PPE's time goes (docs/performance.md "Through the far-wall impact"): solves per step (the
+  // active set and the own-loop guard repeat them), iterations per solve, and incomplete factorisations
+  // (ILU(0)) per step.
   if (r.ppe_solves > 0 && r.steps > 0)
     log << ", PPE solves per step " << double(r.ppe_solves) / double(r.steps) << ", iterations per solve "
         << double(r.ppe_iterations) / double(r.ppe_solves) << ", factorisations per step "
@@ -104,18 +114,20 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r, const cas
   return out;
 }
 
-/// A run kept on disk (`--series DIR`): the series and counters the study reads from a tanaka_dam_break_result, so
-/// that an expensive run (the 1 mm reference: hours of one core) is computed once and reused by later studies with
-/// the same configuration. One text file per run: a `key` line (the run's configuration; a file whose key differs
-/// is refused, not overwritten), the counters, the failure text, the front samples (T, Z), the far-wall probe
-/// (t, p; NaN while dry) and the body front (T, Z_body; files without it are refused), numbers at 17 digits, so a
-/// loaded run gives the metrics of the computed one bitwise.
+/// A run kept on disk (`--series DIR`): the series and counters the study reads from a
+/// tanaka_dam_break_result, so that an expensive run (the 1 mm reference: hours of one core) is computed once
+/// and reused by later studies with the same configuration. One text file per run: a `key` line (the run's
+/// configuration; a file whose key differs is refused, not overwritten), the counters, the failure text, the
+/// front samples (T, Z), the far-wall probe (t, p; NaN while dry) and the body front (T, Z_body; files
+/// without it are refused), numbers at 17 digits, so a loaded run gives the metrics of the computed one
+/// bitwise.
 class run_cache {
  public:
   explicit run_cache(std::string dir) : dir_(std::move(dir)) {}
 
-  /// The run under `file` (a name without spaces) with configuration `key`: loaded when DIR/file.txt exists (its
-  /// key must equal `key`), else computed by `compute` and saved. Without a directory: computed, not saved.
+  /// The run under `file` (a name without spaces) with configuration `key`: loaded when DIR/file.txt exists
+  /// (its key must equal `key`), else computed by `compute` and saved. Without a directory: computed, not
+  /// saved.
   template <class F>
   cases::tanaka_dam_break_result get(const std::string& file, const std::string& key, F&& compute,
                                      std::ostream& log) const {
@@ -123,7 +135,8 @@ class run_cache {
     const std::filesystem::path path = std::filesystem::path(dir_) / (file + ".txt");
     if (std::filesystem::exists(path)) {
       cases::tanaka_dam_break_result r = load(path, key);
-      log << "  " << file << ": loaded from " << path.string() << " (computed earlier: " << r.wall_seconds << " s)\n";
+      log << "  " << file << ": loaded from " << path.string() << " (computed earlier: " << r.wall_seconds
+          << " s)\n";
       return r;
     }
     cases::tanaka_dam_break_result r = compute();
@@ -138,22 +151,21 @@ class run_cache {
     return s;
   }
 
-  // Written beside the target and renamed onto it, so that a killed run or a second study sharing the directory
-  // never sees half a file.
+  // Written beside the target and renamed onto it, so that a killed run or a second study sharing the
+  // directory never sees half a file.
   static void save(const std::filesystem::path& path, const std::string& key,
                    const cases::tanaka_dam_break_result& r) {
     if (r.Z.size() != r.T.size() || r.Z_body.size() != r.T.size())
-      fail("report_obstacle_multires: ", path.string(), ": the run's front series have ", r.T.size(), " times, ",
-           r.Z.size(), " and ", r.Z_body.size(), " fronts");
+      fail("report_obstacle_multires: ", path.string(), ": the run's front series have ", r.T.size(),
+           " times, ", r.Z.size(), " and ", r.Z_body.size(), " fronts");
     const std::filesystem::path tmp = path.string() + ".partial";
     {
       std::ofstream f(tmp);
       f.precision(17);
       f << "key " << key << "\ncounters " << r.particles << ' ' << r.particles_end << ' ' << r.steps << ' '
         << r.wall_seconds << ' ' << r.ppe_iterations << ' ' << r.guarded << ' ' << r.min_pair_ratio << ' '
-        << r.u_max << ' ' << r.failed << ' ' << r.T_failed << ' ' << r.ppe_solves << ' ' << r.ppe_factorisations
-        << "\nfailure " << one_line(r.failure) << "\nfront "
-        << r.T.size() << "\n";
+        << r.u_max << ' ' << r.failed << ' ' << r.T_failed << ' ' << r.ppe_solves << ' '
+        << r.ppe_factorisations << "\nfailure " << one_line(r.failure) << "\nfront " << r.T.size() << "\n";
       for (std::size_t k = 0; k < r.T.size(); ++k) f << r.T[k] << ' ' << r.Z[k] << '\n';
       f << "probe " << r.probe_t.size() << "\n";
       for (std::size_t k = 0; k < r.probe_t.size(); ++k) f << r.probe_t[k] << ' ' << r.probe_p[k] << '\n';
@@ -169,13 +181,15 @@ class run_cache {
   static cases::tanaka_dam_break_result load(const std::filesystem::path& path, const std::string& key) {
     std::ifstream f(path);
     const auto bad = [&](const char* what) {
-      fail("report_obstacle_multires: ", path.string(), ": ", what, " (not a file written by --series; remove it)");
+      fail("report_obstacle_multires: ", path.string(), ": ", what,
+           " (not a file written by --series; remove it)");
     };
     std::string line;
     if (!std::getline(f, line) || line.rfind("key ", 0) != 0) bad("no key line");
     if (line.substr(4) != key)
-      fail("report_obstacle_multires: ", path.string(), " holds another configuration:\n  file: ", line.substr(4),
-           "\n  this: ", key, "\n(use another --series directory or remove the file)");
+      fail("report_obstacle_multires: ", path.string(),
+           " holds another configuration:\n  file: ", line.substr(4), "\n  this: ", key,
+           "\n(use another --series directory or remove the file)");
     std::vector<double> v;
     // n numbers, or (n_older > 0) n_older of them: a file written before the last fields were added.
     const auto numbers = [&](const std::string& text, std::size_t n, std::size_t n_older = 0) {
@@ -251,7 +265,8 @@ void speed_ups(const bench::reporter& rep, const char* metric, std::ostream& log
     if (usable(bench::reporter::value(r, metric)))
       curve.push_back({r.wall_median, bench::reporter::value(r, metric)});
     else if (!r.failure.empty())
-      log << metric << ": " << r.name << " failed (" << r.failure << "): not on the single-resolution curve\n";
+      log << metric << ": " << r.name << " failed (" << r.failure
+          << "): not on the single-resolution curve\n";
   }
   if (curve.empty()) log << metric << ": no single-resolution run with a usable value: no speed-up\n";
   for (const bench::run_record& m : rep.records()) {
@@ -263,10 +278,11 @@ void speed_ups(const bench::reporter& rep, const char* metric, std::ostream& log
       continue;
     }
     const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, e});
-    log << m.name << ", " << metric << " " << e << ": single resolution needs " << s.bound_prefix() << s.single_seconds
-        << " s for it; speed-up " << s.kind_name() << " " << s.speed_up << s.dominated_note() << "\n";
-    csv << m.name << "," << metric << "," << m.wall_median << "," << e << "," << curve.size() << "," << s.kind_name() << ","
-        << s.single_seconds << "," << s.speed_up << "," << s.dominated << "\n";
+    log << m.name << ", " << metric << " " << e << ": single resolution needs " << s.bound_prefix()
+        << s.single_seconds << " s for it; speed-up " << s.kind_name() << " " << s.speed_up
+        << s.dominated_note() << "\n";
+    csv << m.name << "," << metric << "," << m.wall_median << "," << e << "," << curve.size() << ","
+        << s.kind_name() << "," << s.single_seconds << "," << s.speed_up << "," << s.dominated << "\n";
   }
 }
 
@@ -292,7 +308,8 @@ int main(int argc, char** argv) try {
     else if (k == "--out") out = v;
     else if (k == "--series") series = v;
     else if (k == "--walls") walls = v;  // checked by obstacle_params below, before any run
-    else if (k == "--collision") collision = bench::parse_number("--collision", v, 0.0);  // validated by the scheme
+    else if (k == "--collision")
+      collision = bench::parse_number("--collision", v, 0.0);  // validated by the scheme
     else if (k == "--collide-isolated") collide_isolated = flag01("--collide-isolated", v);
     else if (k == "--shift-isolated") shift_isolated = flag01("--shift-isolated", v);
     else if (k == "--solver") {
@@ -307,8 +324,10 @@ int main(int argc, char** argv) try {
       multis.clear();
       for (const std::string& s : split(v)) {
         const auto slash = s.find('/');
-        if (slash == std::string::npos) fail("report_obstacle_multires: --multi '", s, "': need L/ratio, e.g. 5/2");
-        multis.push_back({number(s.substr(0, slash), "--multi L"), number(s.substr(slash + 1), "--multi ratio")});
+        if (slash == std::string::npos)
+          fail("report_obstacle_multires: --multi '", s, "': need L/ratio, e.g. 5/2");
+        multis.push_back(
+            {number(s.substr(0, slash), "--multi L"), number(s.substr(slash + 1), "--multi ratio")});
       }
     } else fail("report_obstacle_multires: unknown option '", k,
                 "' (--reference, --single, --multi, --T, --repetitions, --out, --walls, --collision, "
@@ -323,15 +342,17 @@ int main(int argc, char** argv) try {
   if (across_changes && !ilu0) fail("report_obstacle_multires: --across-changes 1 needs --solver ilu0");
   p.solver.ilut_reuse_across_changes = across_changes;
   if (collide_isolated && collision == 0.0)
-    fail("report_obstacle_multires: --collide-isolated 1 needs the collision stage on (--collision ALPHA1 > 0)");
+    fail(
+        "report_obstacle_multires: --collide-isolated 1 needs the collision stage on (--collision ALPHA1 > "
+        "0)");
   std::cout << "report_obstacle_multires (" << MPSKIT_BENCH_FLAGS << "), to T = " << T_end << ", reference "
             << ref_mm << " mm, walls '" << walls << "', collision alpha1 " << collision
             << (collide_isolated ? " (isolated particles too)" : "")
             << (shift_isolated ? ", isolated particles in the shifting penalty" : "") << ", PPE solver "
             << (ilu0 ? "BiCGSTAB-ILU(0)" : "BiCGSTAB-Jacobi")
             << (across_changes ? " (factors kept across changes of the unknowns)" : "") << "\n";
-  // A run's configuration, the key of its --series file: the options that change its result or its wall time, and
-  // the case's vessel settings. Not the library's code: a series directory belongs to one build of it.
+  // A run's configuration, the key of its --series file: the options that change its result or its wall time,
+  // and the case's vessel settings. Not the library's code: a series directory belongs to one build of it.
   if (singles.empty() && multis.empty() && series.empty())
     fail("report_obstacle_multires: --single \"\" --multi \"\" runs the reference alone, to keep it: give "
          "--series DIR");
@@ -340,10 +361,10 @@ int main(int argc, char** argv) try {
     std::ostringstream k;
     k.precision(17);
     k << run << "; L " << L_mm << " mm; T " << T_end << "; walls " << walls << "; collision " << collision
-      << " isolated " << collide_isolated << "; shift_isolated " << shift_isolated << "; vessel " << c.vessel_height
-      << " m" << (c.closed_top ? " closed" : " open") << (c.remove_outside ? ", remove_outside" : "") << "; threads "
-      << max_threads() << "; build " << MPSKIT_BENCH_FLAGS << (ilu0 ? "; solver ilu0" : "")
-      << (across_changes ? "; across changes" : "");
+      << " isolated " << collide_isolated << "; shift_isolated " << shift_isolated << "; vessel "
+      << c.vessel_height << " m" << (c.closed_top ? " closed" : " open")
+      << (c.remove_outside ? ", remove_outside" : "") << "; threads " << max_threads() << "; build "
+      << MPSKIT_BENCH_FLAGS << (ilu0 ? "; solver ilu0" : "") << (across_changes ? "; across changes" : "");
     return k.str();
   };
   const auto file = [](const std::string& run) {  // "multi 5/2.5 mm" -> "multi_5_over_2.5_mm"
@@ -367,18 +388,22 @@ int main(int argc, char** argv) try {
   const cases::tanaka_dam_break_config ref_c = cases::tanaka_obstacle_config(1e-3 * ref_mm);
   const cases::tanaka_dam_break_result ref = single_run(ref_mm);
   if (ref.failed)
-    fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ", ref.failure);
+    fail("report_obstacle_multires: the reference (", ref_mm, " mm) failed at T = ", ref.T_failed, ": ",
+         ref.failure);
   const cases::impact_measures mref = cases::far_wall_impact(ref);
-  const double T_impact = std::isfinite(mref.t_arrival) ? cases::make_tanaka_dam_break(ref_c).t_star(mref.t_arrival)
-                                                        : std::numeric_limits<double>::infinity();
-  std::cout << "  reference " << ref_mm << " mm: " << ref.particles << " particles, " << ref.steps << " steps, "
-            << ref.wall_seconds << " s, guard activations " << ref.guarded << "; far-wall probe (195, 5) mm wet at T = "
-            << T_impact << " (fronts compared before it), impulse over 10 ms " << mref.impulse << " Pa s"
-            << (mref.complete ? "" : " (window incomplete: no impulse error)") << ", 2 ms peak " << mref.peak_filtered
-            << " Pa, closest pair " << ref.min_pair_ratio << " L, largest speed " << ref.u_max << " m/s\n";
+  const double T_impact = std::isfinite(mref.t_arrival)
+                              ? cases::make_tanaka_dam_break(ref_c).t_star(mref.t_arrival)
+                              : std::numeric_limits<double>::infinity();
+  std::cout << "  reference " << ref_mm << " mm: " << ref.particles << " particles, " << ref.steps
+            << " steps, " << ref.wall_seconds << " s, guard activations " << ref.guarded
+            << "; far-wall probe (195, 5) mm wet at T = " << T_impact
+            << " (fronts compared before it), impulse over 10 ms " << mref.impulse << " Pa s"
+            << (mref.complete ? "" : " (window incomplete: no impulse error)") << ", 2 ms peak "
+            << mref.peak_filtered << " Pa, closest pair " << ref.min_pair_ratio << " L, largest speed "
+            << ref.u_max << " m/s\n";
 
-  bench::reporter rep("Dam break with the obstacle, front against " + std::to_string(ref_mm).substr(0, 4) + " mm" +
-                          (ilu0 ? ", BiCGSTAB-ILU(0)" : ""),
+  bench::reporter rep("Dam break with the obstacle, front against " + std::to_string(ref_mm).substr(0, 4) +
+                          " mm" + (ilu0 ? ", BiCGSTAB-ILU(0)" : ""),
                       reps);
   for (const double L : singles) {
     std::ostringstream name;
@@ -398,8 +423,10 @@ int main(int argc, char** argv) try {
                  const cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(1e-3 * L);
                  scheme::lsmps_params<2> pm = p;
                  cases::refine_around_block(pm, c, ratio, 0.03, 0.06);
-                 return ilu0 ? cases::run_tanaka_dam_break<cases::with_ilu0<cases::obstacle_multires_scene>>(c, T_end, pm, true)
-                             : cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true);
+                 return ilu0
+                            ? cases::run_tanaka_dam_break<cases::with_ilu0<cases::obstacle_multires_scene>>(
+                                  c, T_end, pm, true)
+                            : cases::run_tanaka_dam_break<cases::obstacle_multires_scene>(c, T_end, pm, true);
                }, std::cout), ref, T_impact, T_end, n.c_str(), std::cout);
              }});
   }
@@ -409,17 +436,19 @@ int main(int argc, char** argv) try {
   const std::filesystem::path dir(out);
   rep.write_csv(dir / "obstacle_multires_speed_error.csv");
   std::cout << "\n" << rep.markdown_table() << "\n";
-  // Issue #9's speed-up: the single-resolution time for each multi-resolution run's error, on the single-resolution
-  // curve measured in this run (log-log interpolation on its lower envelope, a bound outside the measured range),
-  // for the front error and (when the reference has a complete impact window) for the far-wall impulse error.
+  // Issue #9's speed-up: the single-resolution time for each multi-resolution run's error, on the
+  // single-resolution curve measured in this run (log-log interpolation on its lower envelope, a bound
+  // outside the measured range), for the front error and (when the reference has a complete impact window)
+  // for the far-wall impulse error.
   std::ofstream f(dir / "obstacle_multires_speed_up.csv");
   f << "# reference: single resolution " << ref_mm << " mm to T = " << T_end << ", " << ref.wall_seconds
     << " s; walls " << walls << ", collision alpha1 " << collision
-    << (collide_isolated ? " (isolated too)" : "") << (shift_isolated ? ", isolated in the shifting penalty" : "")
-    << "; PPE solver " << (ilu0 ? "ilu0" : "jacobi") << (across_changes ? " (across changes)" : "")
-    << "; front before T = " << T_impact
-    << "; far-wall impulse " << mref.impulse << " Pa s\n";
-  f << "multires,metric,multires_wall_median_s,multires_error,single_runs,kind,single_seconds,speed_up,dominated\n";
+    << (collide_isolated ? " (isolated too)" : "")
+    << (shift_isolated ? ", isolated in the shifting penalty" : "") << "; PPE solver "
+    << (ilu0 ? "ilu0" : "jacobi") << (across_changes ? " (across changes)" : "")
+    << "; front before T = " << T_impact << "; far-wall impulse " << mref.impulse << " Pa s\n";
+  f << "multires,metric,multires_wall_median_s,multires_error,single_runs,kind,single_seconds,speed_up,"
+       "dominated\n";
   speed_ups(rep, "front_rms", std::cout, f);
   speed_ups(rep, "body_front_rms", std::cout, f);
   if (mref.complete) speed_ups(rep, "impulse_error", std::cout, f);

@@ -2,8 +2,8 @@
 // with the LSMPS scheme: the channel periodic in x driven by G/ρ, and the 20 mm channel driven by pressure
 // inflow/outflow boundaries, over spacings L; errors at t_end against the start-up series and the steady
 // profile (max over rows / u_max), and the wall time, as CSV, Markdown and PNG (benchmarks/reporter.hpp).
-// Δt = 0.1 L²/ν (the viscous limit; the Courant limit at L = 1 mm), so the cost grows as L⁻⁴ in 2D. Run from the repository root with one
-// thread:
+// Δt = 0.1 L²/ν (the viscous limit; the Courant limit at L = 1 mm), so the cost grows as L⁻⁴ in 2D. Run from
+// the repository root with one thread:
 //
 //   OMP_NUM_THREADS=1 build/benchmarks/bench_report_poiseuille --levels 1,0.5,0.25 --repetitions 3
 //
@@ -31,7 +31,8 @@ namespace {
 cases::poiseuille_config config(double L_mm, double t_end) {
   cases::poiseuille_config c;
   c.L = L_mm * 1e-3;
-  // 0.1 L²/ν (viscous limit), or the Courant limit 0.1 L/|u| with |u| up to 1.2 u_max where that is smaller (L ≥ 0.75 mm)
+  // 0.1 L²/ν (viscous limit), or the Courant limit 0.1 L/|u| with |u| up to 1.2 u_max where that is smaller
+  // (L ≥ 0.75 mm)
   c.dt = std::min(2.5e-4 * (c.L / 0.5e-3) * (c.L / 0.5e-3), 0.1 * c.L / (1.2 * 0.125));
   c.t_end = t_end;
   c.probe_times = {};
@@ -60,9 +61,9 @@ struct pressure_multires_scene : cases::poiseuille_pressure_scene {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// Multi-resolution 2:1 (docs/resolution.md, label poiseuille_multires): from the 0.5 mm lattice, L* = 0.25 mm
-/// within 1.5 mm of a wall, a ramp to 0.525 mm at 3.5 mm; Δt = 0.1 (0.24 mm)²/ν (pressure faces: the smallest
-/// boundary piece is 0.248 mm) or 0.1 (0.25 mm)²/ν (periodic).
+/// Multi-resolution 2:1 (docs/resolution.md, label poiseuille_multires): from the 0.5 mm lattice,
+/// L* = 0.25 mm within 1.5 mm of a wall, a ramp to 0.525 mm at 3.5 mm; Δt = 0.1 (0.24 mm)²/ν (pressure faces:
+/// the smallest boundary piece is 0.248 mm) or 0.1 (0.25 mm)²/ν (periodic).
 bench::configuration make_multires(bool pressure, double t_end) {
   bench::configuration b;
   b.series = pressure ? "pressure boundaries 20 mm 2:1" : "periodic body force 2:1";
@@ -154,12 +155,13 @@ int main(int argc, char** argv) try {
   rep.write_csv(csv);
   std::cout << "\n" << rep.markdown_table() << "\nwrote " << csv.string() << "\n";
   if (multires) {
-    // Issue #9's speed-up: the single-resolution time for each multi-resolution run's error against the series,
-    // on the single-resolution curve of the same case measured in this run (bench::speed_up: log-log
+    // Issue #9's speed-up: the single-resolution time for each multi-resolution run's error against the
+    // series, on the single-resolution curve of the same case measured in this run (bench::speed_up: log-log
     // interpolation, a bound outside the measured range).
     const std::filesystem::path su = std::filesystem::path(out) / (stem + "_speed_up.csv");
     std::ofstream f(su);
-    f << "multires,multires_wall_median_s,multires_error_series,single_runs,kind,single_seconds,speed_up,dominated\n";
+    f << "multires,multires_wall_median_s,multires_error_series,single_runs,kind,single_seconds,speed_up,"
+         "dominated\n";
     for (const bench::run_record& m : rep.records()) {
       const auto at = m.series.rfind(" 2:1");
       if (at == std::string::npos) continue;
@@ -168,11 +170,13 @@ int main(int argc, char** argv) try {
       for (const bench::run_record& r : rep.records())
         if (r.series == base) curve.push_back({r.wall_median, bench::reporter::value(r, "series")});
       if (curve.empty()) continue;
-      const bench::speed_up_result s = bench::speed_up(curve, {m.wall_median, bench::reporter::value(m, "series")});
+      const bench::speed_up_result s =
+          bench::speed_up(curve, {m.wall_median, bench::reporter::value(m, "series")});
       std::cout << m.name << ": single resolution needs " << s.bound_prefix() << s.single_seconds
-                << " s for its error; speed-up " << s.kind_name() << " " << s.speed_up << s.dominated_note() << "\n";
-      f << m.name << "," << m.wall_median << "," << bench::reporter::value(m, "series") << "," << curve.size() << ","
-        << s.kind_name() << "," << s.single_seconds << "," << s.speed_up << "," << s.dominated << "\n";
+                << " s for its error; speed-up " << s.kind_name() << " " << s.speed_up << s.dominated_note()
+                << "\n";
+      f << m.name << "," << m.wall_median << "," << bench::reporter::value(m, "series") << "," << curve.size()
+        << "," << s.kind_name() << "," << s.single_seconds << "," << s.speed_up << "," << s.dominated << "\n";
     }
     std::cout << "wrote " << su.string() << "\n";
   }

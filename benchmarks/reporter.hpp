@@ -42,11 +42,11 @@ struct run_outcome {
   std::string failure;            ///< why the run stopped before its end; empty when it completed
 };
 
-/// Records how far a run got: T_reached (its end, or where it failed) and, when it `failed`, why (the outcome's
-/// `failure` becomes "at T = <T_reached>: <why>"). A failed run's error metrics become NaN (errors over the samples
-/// before a failure are not comparable with complete runs: NaN leaves them out of plots and speed-ups); two metrics
-/// are appended: `completed` (1 or 0) and `T_reached/100` (the dimensionless time reached, over 100 so the Markdown
-/// table's 100 × prints it).
+/// Records how far a run got: T_reached (its end, or where it failed) and, when it `failed`, why (the
+/// outcome's `failure` becomes "at T = <T_reached>: <why>"). A failed run's error metrics become NaN (errors
+/// over the samples before a failure are not comparable with complete runs: NaN leaves them out of plots and
+/// speed-ups); two metrics are appended: `completed` (1 or 0) and `T_reached/100` (the dimensionless time
+/// reached, over 100 so the Markdown table's 100 × prints it).
 inline void record_completion(run_outcome& o, bool failed, double T_reached, const std::string& why = "") {
   if (failed) {
     std::ostringstream f;
@@ -93,8 +93,8 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Command-line numbers (parse_number, parse_numbers, whole_number, parse_integer, parse_integers): shared with the
-// examples, examples/cases/cli.hpp.
+// Command-line numbers (parse_number, parse_numbers, whole_number, parse_integer, parse_integers): shared
+// with the examples, examples/cases/cli.hpp.
 using cases::parse_integer;
 using cases::parse_integers;
 using cases::parse_number;
@@ -147,7 +147,8 @@ struct run_options {
 class reporter {
  public:
   /// `case_name` titles the outputs; `repetitions` ≥ 1 runs per configuration (median wall time).
-  explicit reporter(std::string case_name, int repetitions = 3) : case_(std::move(case_name)), reps_(repetitions) {
+  explicit reporter(std::string case_name, int repetitions = 3)
+      : case_(std::move(case_name)), reps_(repetitions) {
     if (repetitions < 1) fail("reporter: repetitions = ", repetitions, " must be >= 1");
   }
   /// Adds a configuration.
@@ -175,8 +176,8 @@ class reporter {
                " in the first (runs must be deterministic)");
         }
         r.wall_seconds.push_back(o.wall_seconds);
-        log << "  " << c.name << " run " << k + 1 << "/" << reps_ << ": " << o.wall_seconds << " s, " << o.steps
-            << " steps" << std::endl;
+        log << "  " << c.name << " run " << k + 1 << "/" << reps_ << ": " << o.wall_seconds << " s, "
+            << o.steps << " steps" << std::endl;
         if (!o.failure.empty()) {
           // Runs are deterministic: a repetition would fail the same way, so the study goes on with the next
           // configuration; the record keeps the failure and the caller's metrics (NaN where not comparable).
@@ -205,10 +206,10 @@ class reporter {
     for (const std::string& m : metric_names()) f << ',' << m;
     f << '\n';
     for (const run_record& r : records_) {
-      f << r.name << ',' << r.series << ',' << r.l0 << ',' << r.particles << ',' << r.steps << ',' << r.wall_median
-        << ',' << *std::min_element(r.wall_seconds.begin(), r.wall_seconds.end()) << ','
-        << *std::max_element(r.wall_seconds.begin(), r.wall_seconds.end()) << ',' << r.particle_steps_per_second
-        << ',' << r.ppe_iterations_mean;
+      f << r.name << ',' << r.series << ',' << r.l0 << ',' << r.particles << ',' << r.steps << ','
+        << r.wall_median << ',' << *std::min_element(r.wall_seconds.begin(), r.wall_seconds.end()) << ','
+        << *std::max_element(r.wall_seconds.begin(), r.wall_seconds.end()) << ','
+        << r.particle_steps_per_second << ',' << r.ppe_iterations_mean;
       for (const std::string& m : metric_names()) f << ',' << value(r, m);
       f << '\n';
     }
@@ -218,16 +219,19 @@ class reporter {
   /// A Markdown table of the records (errors in %).
   std::string markdown_table() const {
     std::ostringstream o;
-    o << "| configuration | l0 (m) | particles | steps | wall median (s) | particle-steps/s | PPE iter./step |";
+    o << "| configuration | l0 (m) | particles | steps | wall median (s) | particle-steps/s | PPE iter./step "
+         "|";
     for (const std::string& m : metric_names()) o << ' ' << m << " (%) |";
     o << "\n|---|---|---|---|---|---|---|";
     for (std::size_t k = 0; k < metric_names().size(); ++k) o << "---|";
     o << '\n';
     for (const run_record& r : records_) {
-      o << "| " << r.name << (r.failure.empty() ? "" : " (failed)") << " | " << std::setprecision(4) << r.l0 << " | " << r.particles << " | " << r.steps << " | "
-        << std::fixed << std::setprecision(2) << r.wall_median << " | " << std::setprecision(0)
-        << r.particle_steps_per_second << " | " << std::setprecision(1) << r.ppe_iterations_mean << " |";
-      for (const std::string& m : metric_names()) o << ' ' << std::setprecision(2) << 100.0 * value(r, m) << " |";
+      o << "| " << r.name << (r.failure.empty() ? "" : " (failed)") << " | " << std::setprecision(4) << r.l0
+        << " | " << r.particles << " | " << r.steps << " | " << std::fixed << std::setprecision(2)
+        << r.wall_median << " | " << std::setprecision(0) << r.particle_steps_per_second << " | "
+        << std::setprecision(1) << r.ppe_iterations_mean << " |";
+      for (const std::string& m : metric_names())
+        o << ' ' << std::setprecision(2) << 100.0 * value(r, m) << " |";
       o << std::defaultfloat << '\n';
     }
     return o.str();
@@ -238,11 +242,12 @@ class reporter {
   /// PNG and runs gnuplot. `log_y` puts the metric on a log scale too. Returns false (with a message on
   /// `log`) when no run has a value to plot (finite, and > 0 with log_y: e.g. a study of the reference alone,
   /// whose error against itself is 0), or when gnuplot is missing or fails.
-  bool write_plot(const std::filesystem::path& png, const std::string& metric_name, std::ostream& log = std::cout,
-                  bool log_y = false) const {
+  bool write_plot(const std::filesystem::path& png, const std::string& metric_name,
+                  std::ostream& log = std::cout, bool log_y = false) const {
     if (std::none_of(records_.begin(), records_.end(), [&](const run_record& r) {
           const double v = value(r, metric_name);
-          return std::isfinite(v) && std::isfinite(r.wall_median) && r.wall_median > 0.0 && (!log_y || v > 0.0);
+          return std::isfinite(v) && std::isfinite(r.wall_median) && r.wall_median > 0.0 &&
+                 (!log_y || v > 0.0);
         })) {
       log << "reporter: no run has a " << (log_y ? "positive " : "") << "finite " << metric_name
           << " to plot: no picture '" << png.string() << "'\n";
@@ -274,15 +279,17 @@ class reporter {
       if (!g) fail("reporter: cannot write '", gp.string(), "'");
       g << "set terminal pngcairo size 900,600 font 'sans,11' noenhanced\n"
         << "set output '" << png.string() << "'\n"
-        << "set title '" << gp_quoted(case_) << ": " << metric_name << " against wall time (median of runs)'\n"
+        << "set title '" << gp_quoted(case_) << ": " << metric_name
+        << " against wall time (median of runs)'\n"
         << "set xlabel 'wall time (s)'\nset ylabel '" << metric_name << "'\n"
         << (log_y ? "set logscale xy\n" : "set logscale x\n")
         << "set grid\nset key top left\nset offsets graph 0.05, graph 0.05, graph 0.15, graph 0.15\n"
         << "plot ";
       for (std::size_t k = 0; k < order.size(); ++k) {
         const char* off = k % 2 ? "offset 0,-1.2" : "offset 0,1.2";
-        g << (k ? ", \\\n     " : "") << "'" << dat.string() << "' index " << k << " using 1:2 with linespoints pt 7 title '"
-          << gp_quoted(order[k]) << "', '' index " << k << " using 1:2:3 with labels " << off << " notitle";
+        g << (k ? ", \\\n     " : "") << "'" << dat.string() << "' index " << k
+          << " using 1:2 with linespoints pt 7 title '" << gp_quoted(order[k]) << "', '' index " << k
+          << " using 1:2:3 with labels " << off << " notitle";
       }
       g << "\n";
     }
@@ -303,8 +310,8 @@ class reporter {
   }
 
  private:
-  /// Text inside a gnuplot single-quoted string: a quote is written twice (a series named "Tanaka's ..." broke
-  /// the script).
+  /// Text inside a gnuplot single-quoted string: a quote is written twice (a series named "Tanaka's ..."
+  /// broke the script).
   static std::string gp_quoted(const std::string& t) {
     std::string q;
     for (const char ch : t) {

@@ -33,40 +33,48 @@ struct speed_up_result {
   double single_seconds = std::numeric_limits<double>::quiet_NaN();
   /// single_seconds / the multi-resolution time (a bound unless how == interpolated).
   double speed_up = std::numeric_limits<double>::quiet_NaN();
-  /// Single runs left out because a cheaper run had an error as low or lower (the curve is not monotone there;
-  /// the reporters print it).
+  /// Single runs left out because a cheaper run had an error as low or lower (the curve is not monotone
+  /// there; the reporters print it).
   int dominated = 0;
   /// "interpolated", "at_most" or "at_least" (the CSV column).
   const char* kind_name() const {
     return how == kind::interpolated ? "interpolated" : how == kind::at_most ? "at_most" : "at_least";
   }
-  /// "" or, when runs were dropped, " (N single-resolution run(s) left out: a cheaper run had as low an error)".
+  /// "" or, when runs were dropped, " (N single-resolution run(s) left out: a cheaper run had as low an
+  /// error)".
   std::string dominated_note() const {
     return dominated == 0 ? std::string()
-                          : " (" + std::to_string(dominated) + " single-resolution run" + (dominated > 1 ? "s" : "") +
-                                " left out: a cheaper run had as low an error)";
+                          : " (" + std::to_string(dominated) + " single-resolution run" +
+                                (dominated > 1 ? "s" : "") + " left out: a cheaper run had as low an error)";
   }
   /// "", "<= " or ">= ": how a printed single_seconds or speed_up is to be read.
-  const char* bound_prefix() const { return how == kind::interpolated ? "" : how == kind::at_most ? "<= " : ">= "; }
+  const char* bound_prefix() const {
+    return how == kind::interpolated ? "" : how == kind::at_most ? "<= " : ">= ";
+  }
 };
 
-/// Speed-up of `multi` against the single-resolution runs `single` (at least one). The runs are taken in order
-/// of wall time, and a run whose error is not below that of a cheaper run is dropped (counted in `dominated`):
-/// single resolution would not pay more for a worse error, so the curve read is the lower envelope, whose error
-/// falls strictly with time. The segment of the envelope whose two errors bracket the multi error gives the time,
-/// log-log linear. (Before 2026-12-03 the first bracketing segment of the whole curve was read: on a curve that
-/// rises somewhere, as the obstacle study's 5 mm outlier, that interpolated on the rising part and overstated the
-/// time single resolution needs.) Throws mpskit::error on an empty curve or a non-positive or non-finite time or
-/// error.
+/// Speed-up of `multi` against the single-resolution runs `single` (at least one). The runs are taken in
+/// order of wall time, and a run whose error is not below that of a cheaper run is dropped (counted in
+/// `dominated`): single resolution would not pay more for a worse error, so the curve read is the lower
+/// envelope, whose error falls strictly with time. The segment of the envelope whose two errors bracket the
+/// multi error gives the time, log-log linear. (Before 2026-12-03 the first bracketing segment of the whole
+/// curve was read: on a curve that rises somewhere, as the obstacle study's 5 mm outlier, that interpolated
+/// on the rising part and overstated the time single resolution needs.) Throws mpskit::error on an empty
+/// curve or a non-positive or non-finite time or error.
 inline speed_up_result speed_up(std::vector<cost_point> single, const cost_point& multi) {
   const auto bad = [](const cost_point& p) {
     return !(std::isfinite(p.seconds) && p.seconds > 0.0 && std::isfinite(p.error) && p.error > 0.0);
   };
   if (single.empty()) fail("speed_up: no single-resolution run");
   for (const cost_point& p : single)
-    if (bad(p)) fail("speed_up: single-resolution run (", p.seconds, " s, error ", p.error, "): both must be finite and > 0");
-  if (bad(multi)) fail("speed_up: multi-resolution run (", multi.seconds, " s, error ", multi.error, "): both must be finite and > 0");
-  std::sort(single.begin(), single.end(), [](const cost_point& a, const cost_point& b) { return a.seconds < b.seconds; });
+    if (bad(p))
+      fail("speed_up: single-resolution run (", p.seconds, " s, error ", p.error,
+           "): both must be finite and > 0");
+  if (bad(multi))
+    fail("speed_up: multi-resolution run (", multi.seconds, " s, error ", multi.error,
+         "): both must be finite and > 0");
+  std::sort(single.begin(), single.end(),
+            [](const cost_point& a, const cost_point& b) { return a.seconds < b.seconds; });
   speed_up_result r;
   // The lower envelope: keep a run only when its error is below every cheaper run's.
   std::vector<cost_point> kept;

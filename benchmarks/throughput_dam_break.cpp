@@ -40,7 +40,8 @@ sample run(double target_particles, double compressibility, int warmup, int step
     const double diag = 2.0 * 2 / (o.lambda0() * o.n0_large()) * o.n0_large();  // Σ a_ij on the lattice
     p.compressibility = 0.06 * diag * p.time.dt_fixed * p.time.dt_fixed / p.rho;
   }
-  simulation<defaults<2>> sim(p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
+  simulation<defaults<2>> sim(
+      p, cases::tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
   for (int k = 0; k < warmup; ++k) sim.step();
   const long it0 = sim.counters().ppe_iterations;
   const auto t0 = std::chrono::steady_clock::now();
@@ -59,25 +60,31 @@ int main(int argc, char** argv) {
   };
   try {
     for (int a = 1; a < argc; ++a) {
-      if (!std::strcmp(argv[a], "--sizes") && a + 1 < argc) sizes = mpskit::cases::parse_numbers("--sizes", argv[++a], 1.0);
-      else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc) steps = mpskit::cases::parse_integer("--steps", argv[++a], 1);
-      else if (!std::strcmp(argv[a], "--reps") && a + 1 < argc) reps = mpskit::cases::parse_integer("--reps", argv[++a], 1);
+      if (!std::strcmp(argv[a], "--sizes") && a + 1 < argc)
+        sizes = mpskit::cases::parse_numbers("--sizes", argv[++a], 1.0);
+      else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc)
+        steps = mpskit::cases::parse_integer("--steps", argv[++a], 1);
+      else if (!std::strcmp(argv[a], "--reps") && a + 1 < argc)
+        reps = mpskit::cases::parse_integer("--reps", argv[++a], 1);
       else return usage();
     }
   } catch (const mpskit::error& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return usage();
   }
-  std::printf("dam break throughput, %s, %d thread(s); defaults<2> (quadratic kernel, TCPI source, NPCD, collision, CG-IC)\n",
-              MPSKIT_BENCH_FLAGS, max_threads());
+  std::printf(
+      "dam break throughput, %s, %d thread(s); defaults<2> (quadratic kernel, TCPI source, NPCD, collision, "
+      "CG-IC)\n",
+      MPSKIT_BENCH_FLAGS, max_threads());
   std::printf("%10s %-18s %12s %12s %12s %8s\n", "particles", "PPE", "median p-s/s", "min", "max", "PPE it");
   for (double n : sizes)
     for (int strict = 0; strict < 2; ++strict) {
       std::vector<sample> s;
       for (int r = 0; r < reps; ++r) s.push_back(run(n, strict ? 0.0 : -1.0, 5, steps));
       std::sort(s.begin(), s.end(), [](const sample& x, const sample& y) { return x.rate < y.rate; });
-      std::printf("%10.0e %-18s %12.4g %12.4g %12.4g %8.1f\n", n, strict ? "strict (a_c = 0)" : "quasi-compr. 6 %",
-                  s[s.size() / 2].rate, s.front().rate, s.back().rate, s[s.size() / 2].iters);
+      std::printf("%10.0e %-18s %12.4g %12.4g %12.4g %8.1f\n", n,
+                  strict ? "strict (a_c = 0)" : "quasi-compr. 6 %", s[s.size() / 2].rate, s.front().rate,
+                  s.back().rate, s[s.size() / 2].iters);
       std::fflush(stdout);
     }
   return 0;

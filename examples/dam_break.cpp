@@ -1,5 +1,6 @@
-// The classic MPS dam break (the main example until issue #9; now examples/multires_dam_break.cpp): 2D dam break (Koshizuka & Oka 1996 set-up: column a × 2a, a = 0.146 m, tank 4a) with
-// the default classic scene (mpskit::defaults<2>). Writes to out/dam_break/:
+// The classic MPS dam break (the main example until issue #9; now examples/multires_dam_break.cpp): 2D dam
+// break (Koshizuka & Oka 1996 set-up: column a × 2a, a = 0.146 m, tank 4a) with the default classic scene
+// (mpskit::defaults<2>). Writes to out/dam_break/:
 //   dam_break.pvd + dam_break_*.vtu   ParaView series (every 0.25 in T), all particle fields
 //   front.csv                          surge front Z(T) with the data band
 //   loads.csv                          every step: integrals (volume, mass, energies) and wall loads
@@ -44,13 +45,14 @@ int main(int argc, char** argv) {
     long last_it = 0;
     std::vector<io::csv_column> cols = io::flow_integrals::columns(2);
     for (const char* c : {"right_wall_x", "bottom_y", "left_wall_x"}) cols.push_back({c, "N/m"});
-    io::csv_writer loads(fs::path(out) / "loads.csv", cols,
-                         io::csv_mode::truncate, {"wall loads from the antisymmetric MPS pair form (docs/solver.md)"});
+    io::csv_writer loads(fs::path(out) / "loads.csv", cols, io::csv_mode::truncate,
+                         {"wall loads from the antisymmetric MPS pair form (docs/solver.md)"});
     const auto r = cases::run_dam_break<defaults<2>>(cfg, [&](const auto& sim) {
       const auto& c = sim.counters();
-      counters.record_step(sim.state().n_real(), c.ppe_iterations - last_it, 0, 0,
-                           static_cast<index_t>(std::count_if(sim.state().flags().begin(), sim.state().flags().end(),
-                                                              [](flag::type f) { return (f & flag::isolated) != 0; })));
+      counters.record_step(
+          sim.state().n_real(), c.ppe_iterations - last_it, 0, 0,
+          static_cast<index_t>(std::count_if(sim.state().flags().begin(), sim.state().flags().end(),
+                                             [](flag::type f) { return (f & flag::isolated) != 0; })));
       last_it = c.ppe_iterations;
       {
         const auto& st = sim.state();
@@ -79,7 +81,8 @@ int main(int argc, char** argv) {
     progress.finish();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     {
-      io::csv_writer csv(fs::path(out) / "front.csv", {{"T", "1"}, {"Z", "1"}, {"band_low", "1"}, {"band_high", "1"}});
+      io::csv_writer csv(fs::path(out) / "front.csv",
+                         {{"T", "1"}, {"Z", "1"}, {"band_low", "1"}, {"band_high", "1"}});
       for (std::size_t k = 0; k < r.T.size(); ++k) {
         const auto [lo, hi] = cases::front_band(ref, r.T[k]);
         csv.row({r.T[k], r.Z[k], lo, hi});
@@ -91,16 +94,26 @@ int main(int argc, char** argv) {
       std::ofstream g(gp);
       g << "set terminal pngcairo size 1000,500\nset datafile separator whitespace\n"
         << "set output '" << (fs::path(out) / "particles.png").string() << "'\n"
-        << "set size ratio -1\nset title 'dam break at T = " << cfg.T_end << ": particles coloured by pressure (Pa)'\n"
+        << "set size ratio -1\nset title 'dam break at T = " << cfg.T_end
+        << ": particles coloured by pressure (Pa)'\n"
         << "set xlabel 'x (m)'\nset ylabel 'y (m)'\nset palette rgbformulae 33,13,10\n"
-        << "plot '" << (fs::path(out) / "particles.dat").string() << "' using 1:2:3 with points pt 7 ps 0.5 palette notitle\n"
-        << "set output '" << (fs::path(out) / "front.png").string() << "'\nset size noratio\nset datafile separator ','\n"
+        << "plot '" << (fs::path(out) / "particles.dat").string()
+        << "' using 1:2:3 with points pt 7 ps 0.5 palette notitle\n"
+        << "set output '" << (fs::path(out) / "front.png").string()
+        << "'\nset size noratio\nset datafile separator ','\n"
         << "set title 'surge front: mpskit against Martin and Moyce (1952), Koshizuka and Oka (1996)'\n"
-        << "set xlabel 'T = t sqrt(2g/a)'\nset ylabel 'Z = z/a'\nset key left top\nset xrange [0:" << cfg.T_end + 0.5 << "]\nset yrange [0:5]\n"
-        << "plot '" << (fs::path(out) / "front.csv").string() << "' using 1:2 every ::1 with lines lw 2 title 'mpskit (l0 = a/"
-        << std::lround(cfg.a / cfg.l0) << ")', '" << data << "/martin_moyce_1952_a1.125in.csv' using 1:2 every ::1 with points pt 5 title 'Martin and Moyce, a = 1.125 in', '"
-        << data << "/martin_moyce_1952_a2.25in.csv' using 1:2 every ::1 with points pt 7 title 'Martin and Moyce, a = 2.25 in', '"
-        << data << "/koshizuka_oka_1996.csv' using 1:2 every ::1 with points pt 9 title 'Koshizuka and Oka (1996)'\n";
+        << "set xlabel 'T = t sqrt(2g/a)'\nset ylabel 'Z = z/a'\nset key left top\nset xrange [0:"
+        << cfg.T_end + 0.5 << "]\nset yrange [0:5]\n"
+        << "plot '" << (fs::path(out) / "front.csv").string()
+        << "' using 1:2 every ::1 with lines lw 2 title 'mpskit (l0 = a/" << std::lround(cfg.a / cfg.l0)
+        << ")', '" << data
+        << "/martin_moyce_1952_a1.125in.csv' using 1:2 every ::1 with points pt 5 title 'Martin and Moyce, a "
+           "= 1.125 in', '"
+        << data
+        << "/martin_moyce_1952_a2.25in.csv' using 1:2 every ::1 with points pt 7 title 'Martin and Moyce, a "
+           "= 2.25 in', '"
+        << data
+        << "/koshizuka_oka_1996.csv' using 1:2 every ::1 with points pt 9 title 'Koshizuka and Oka (1996)'\n";
     }
     const bool pictures = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str()) == 0;
     int outside = 0, compared = 0;
@@ -114,14 +127,17 @@ int main(int argc, char** argv) {
       worst = std::max(worst, std::abs(r.Z[k] - mid) / mid);
     }
     std::printf("\nmpskit dam break (Koshizuka & Oka set-up, classic MPS scene)\n");
-    std::printf("  column %.3f x %.3f m, tank %.3f m, l0 = %.4f m (a/%ld): %ld particles, %ld fluid\n", cfg.a, 2 * cfg.a,
-                4 * cfg.a, cfg.l0, std::lround(cfg.a / cfg.l0), long(r.particles), long(r.fluid));
-    std::printf("  front Z(T) for T <= %.1f: %d of %d samples inside the data band (+-10%%); largest distance to the band's centre %.1f %%\n",
-                cfg.T_end, compared - outside, compared, 100.0 * worst);
-    std::printf("  Z(T=%.2f) = %.3f; fluid stayed in the tank: %s; particles conserved: %s\n", r.T.back(), r.Z.back(),
-                r.inside_tank ? "yes" : "NO", r.fluid_end == r.fluid ? "yes" : "NO");
+    std::printf("  column %.3f x %.3f m, tank %.3f m, l0 = %.4f m (a/%ld): %ld particles, %ld fluid\n", cfg.a,
+                2 * cfg.a, 4 * cfg.a, cfg.l0, std::lround(cfg.a / cfg.l0), long(r.particles), long(r.fluid));
+    std::printf(
+        "  front Z(T) for T <= %.1f: %d of %d samples inside the data band (+-10%%); largest distance to the "
+        "band's centre %.1f %%\n",
+        cfg.T_end, compared - outside, compared, 100.0 * worst);
+    std::printf("  Z(T=%.2f) = %.3f; fluid stayed in the tank: %s; particles conserved: %s\n", r.T.back(),
+                r.Z.back(), r.inside_tank ? "yes" : "NO", r.fluid_end == r.fluid ? "yes" : "NO");
     io::print_summary(std::cout, counters.summary(wall));
-    std::printf("  output: %s/dam_break.pvd (%ld files), front.csv, loads.csv%s\n", out.c_str(), long(vtk.files_written()),
+    std::printf("  output: %s/dam_break.pvd (%ld files), front.csv, loads.csv%s\n", out.c_str(),
+                long(vtk.files_written()),
                 pictures ? ", particles.png, front.png" : " (no gnuplot: pictures skipped)");
     return outside == 0 ? 0 : 1;
   } catch (const mpskit::error& e) {

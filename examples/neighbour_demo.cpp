@@ -17,7 +17,9 @@
 using namespace mpskit;
 using clk = std::chrono::steady_clock;
 
-static double seconds_since(clk::time_point t) { return std::chrono::duration<double>(clk::now() - t).count(); }
+static double seconds_since(clk::time_point t) {
+  return std::chrono::duration<double>(clk::now() - t).count();
+}
 
 int main(int argc, char** argv) {
   int side = 200;
@@ -27,8 +29,10 @@ int main(int argc, char** argv) {
     else {
       bool ok = true;
       try {  // the whole text a number (cases/cli.hpp)
-        if (!std::strcmp(argv[a], "--n") && a + 1 < argc) side = cases::parse_integer("neighbour_demo: --n", argv[++a], 2);
-        else if (!std::strcmp(argv[a], "--jitter") && a + 1 < argc) jitter = cases::parse_number("neighbour_demo: --jitter", argv[++a], 0.0);
+        if (!std::strcmp(argv[a], "--n") && a + 1 < argc)
+          side = cases::parse_integer("neighbour_demo: --n", argv[++a], 2);
+        else if (!std::strcmp(argv[a], "--jitter") && a + 1 < argc)
+          jitter = cases::parse_number("neighbour_demo: --jitter", argv[++a], 0.0);
         else ok = false;
       } catch (const mpskit::error& e) {
         std::fprintf(stderr, "%s\n", e.what());
@@ -92,18 +96,19 @@ int main(int argc, char** argv) {
     max_err = std::max(max_err, std::abs(lap[i] - 4.0));
     sum_err2 += (lap[i] - 4.0) * (lap[i] - 4.0);
   }
-  std::printf("mpskit neighbour demo: %ld particles (%d x %d, jitter %.2f l0), %d thread(s)\n", static_cast<long>(n),
-              side, side, jitter, max_threads());
+  std::printf("mpskit neighbour demo: %ld particles (%d x %d, jitter %.2f l0), %d thread(s)\n",
+              static_cast<long>(n), side, side, jitter, max_threads());
   std::printf("  list: %ld pairs (%.1f per particle) at 3.1 l0 x (1 + %.1f); cells %ld\n",
-              static_cast<long>(list.pairs()), double(list.pairs()) / n, skin, static_cast<long>(list.cells().cells()));
-  std::printf("  reorder to cell order: %ld particles moved slot (%.1f ms)\n", static_cast<long>(rep.reordered),
-              1e3 * t_reorder);
+              static_cast<long>(list.pairs()), double(list.pairs()) / n, skin,
+              static_cast<long>(list.cells().cells()));
+  std::printf("  reorder to cell order: %ld particles moved slot (%.1f ms)\n",
+              static_cast<long>(rep.reordered), 1e3 * t_reorder);
   std::printf("  build (cells + CSR): first %.1f ms, in cell order %.1f ms = %.1f ns/pair\n", 1e3 * t_first,
               1e3 * t_build, 1e9 * t_build / double(list.pairs()));
   std::printf("  sweep (n at 2.1 l0 + Laplacian at 3.1 l0): %.1f ms = %.2f ns/stored pair\n", 1e3 * t_sweep,
               1e9 * t_sweep / double(list.pairs()));
-  std::printf("  interior particles: %ld; mean n/n0(2.1) = %.5f (1 on the exact lattice)\n", static_cast<long>(interior),
-              sum_n / double(interior));
+  std::printf("  interior particles: %ld; mean n/n0(2.1) = %.5f (1 on the exact lattice)\n",
+              static_cast<long>(interior), sum_n / double(interior));
   std::printf("  classic MPS Laplacian of |x - x_i|^2 (exact 4 on the lattice): RMS error %.3e, max %.3e\n",
               std::sqrt(sum_err2 / double(interior)), max_err);
   return 0;

@@ -1,6 +1,6 @@
 // Channel flows (issue #8): periodic Poiseuille between polygon walls (label poiseuille) and periodic
-// unit tests (label periodic); checkpoint and restart of the LSMPS scheme on the multi-resolution multi-diameter
-// channel (label restart: split/merge, pressure faces and walls in one scene).
+// unit tests (label periodic); checkpoint and restart of the LSMPS scheme on the multi-resolution
+// multi-diameter channel (label restart: split/merge, pressure faces and walls in one scene).
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -33,13 +33,14 @@ TEST_SUITE("poiseuille") {
     for (const auto& pr : r.probes)
       std::printf("poiseuille periodic t = %.4f s: max err %.4f rms %.4f |v|max %.2e\n", pr.t, pr.max_error,
                   pr.rms_error, pr.max_cross);
-    std::printf("poiseuille periodic end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, steps %ld, "
-                "guarded %ld, pinned %ld, iterations %ld, %lld particles, %.1f s\n",
-                r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, r.steps, r.guarded, r.pinned,
-                r.ppe_iterations, static_cast<long long>(r.particles), r.wall_seconds);
+    std::printf(
+        "poiseuille periodic end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, steps %ld, "
+        "guarded %ld, pinned %ld, iterations %ld, %lld particles, %.1f s\n",
+        r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, r.steps, r.guarded, r.pinned,
+        r.ppe_iterations, static_cast<long long>(r.particles), r.wall_seconds);
     // Issue #8: the profile within 2 % of the analytic steady profile (u_max = G H²/(8μ) = 0.125 m/s). At
-    // t = 0.5 s the slowest mode of the start-up (time constant H²/(π²ν) = 0.10 s) still holds 0.7 % of u_max,
-    // so the steady comparison measures 0.76 %; against the series it is 0.02 %.
+    // t = 0.5 s the slowest mode of the start-up (time constant H²/(π²ν) = 0.10 s) still holds 0.7 % of
+    // u_max, so the steady comparison measures 0.76 %; against the series it is 0.02 %.
     CHECK(r.steady_error <= 0.02);
     CHECK(r.end.max_error <= 0.01);
     // The start-up transient against the series at 0.05 s and 0.1 s (half and one time constant): measured
@@ -68,22 +69,26 @@ TEST_SUITE("poiseuille") {
 }
 
 TEST_SUITE("poiseuille") {
-  TEST_CASE("channel: pressure-driven Poiseuille through pressure inflow/outflow boundaries (Tanaka 2018 §4.5.2)") {
-    // Issue #8's CI case: 10 mm × 20 mm, Δp = 20 Pa (G = 1000 Pa/m), ρ = 1000, μ = 0.1 Pa s, L = 0.5 mm, to 0.5 s,
-    // profile on the mid-length slice |x − ℓ/2| ≤ 2 L.
+  TEST_CASE(
+      "channel: pressure-driven Poiseuille through pressure inflow/outflow boundaries (Tanaka 2018 §4.5.2)") {
+    // Issue #8's CI case: 10 mm × 20 mm, Δp = 20 Pa (G = 1000 Pa/m), ρ = 1000, μ = 0.1 Pa s, L = 0.5 mm, to
+    // 0.5 s, profile on the mid-length slice |x − ℓ/2| ≤ 2 L.
     cases::poiseuille_config c;
     c.length = 0.02;
     const auto r = cases::run_poiseuille_pressure(c);
     for (const auto& pr : r.probes)
-      std::printf("poiseuille pressure t = %.4f s: max err %.4f rms %.4f |v|max %.2e\n", pr.t, pr.max_error, pr.rms_error,
-                  pr.max_cross);
-    std::printf("poiseuille pressure end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, p err %.4f, volume "
-                "[%.4f, %.4f], in %ld out %ld behind %ld, ledger %.1e, steps %ld, guarded %ld, %.1f s\n",
-                r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, r.pressure_error, r.volume_min, r.volume_max,
-                r.inflow, r.outflow, r.outflow_behind, r.ledger_error, r.steps, r.guarded, r.wall_seconds);
+      std::printf("poiseuille pressure t = %.4f s: max err %.4f rms %.4f |v|max %.2e\n", pr.t, pr.max_error,
+                  pr.rms_error, pr.max_cross);
+    std::printf(
+        "poiseuille pressure end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, p err %.4f, "
+        "volume "
+        "[%.4f, %.4f], in %ld out %ld behind %ld, ledger %.1e, steps %ld, guarded %ld, %.1f s\n",
+        r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, r.pressure_error, r.volume_min,
+        r.volume_max, r.inflow, r.outflow, r.outflow_behind, r.ledger_error, r.steps, r.guarded,
+        r.wall_seconds);
     // The start-up transient against the series at 0.05 s and 0.1 s: measured 0.13 % and 0.14 % of u_max with
-    // the normal-tube boundary velocity (0.19 % and 0.56 % with the paper's isotropic mean); 1.5 % leaves room
-    // for rounding (the in/outflow events make this run sensitive to the last digit).
+    // the normal-tube boundary velocity (0.19 % and 0.56 % with the paper's isotropic mean); 1.5 % leaves
+    // room for rounding (the in/outflow events make this run sensitive to the last digit).
     REQUIRE(r.probes.size() == 2);
     for (const auto& pr : r.probes) {
       CAPTURE(pr.t);
@@ -113,18 +118,20 @@ TEST_SUITE("poiseuille") {
 TEST_SUITE("poiseuille") {
   TEST_CASE("channel: 3D pipe periodic along its axis, body force G/rho, against the Szymanski series") {
     // Issue #8: R = 5 mm, 8 particles per radius (L = 0.625 mm, 1720 particles), period 10 L, 64-facet
-    // cylinder, G = 1000 Pa/m, μ = 0.1 Pa s (u_max = G R²/(4μ) = 0.0625 m/s), Δt = 0.1 L²/ν. CI runs to 0.05 s
-    // only (128 steps, ≈ 90 s of one core with ILUT-BiCGSTAB); the issue's t = 0.2 s is the example's
+    // cylinder, G = 1000 Pa/m, μ = 0.1 Pa s (u_max = G R²/(4μ) = 0.0625 m/s), Δt = 0.1 L²/ν. CI runs to
+    // 0.05 s only (128 steps, ≈ 90 s of one core with ILUT-BiCGSTAB); the issue's t = 0.2 s is the example's
     // (`channel --pipe`; docs/channel.md).
     cases::pipe_config c;
     c.t_end = 0.05;
     c.probe_times = {};
     const auto r = cases::run_pipe(c);
     REQUIRE(r.probes.size() == 1);
-    std::printf("pipe t = %.4f s: max ring error %.4f rms %.4f; %lld particles, %ld steps, %.0f copies/step, guarded %ld, "
-                "%.1f s\n",
-                r.probes[0].t, r.probes[0].max_error, r.probes[0].rms_error, static_cast<long long>(r.particles), r.steps,
-                r.copies_per_step, r.guarded, r.wall_seconds);
+    std::printf(
+        "pipe t = %.4f s: max ring error %.4f rms %.4f; %lld particles, %ld steps, %.0f copies/step, guarded "
+        "%ld, "
+        "%.1f s\n",
+        r.probes[0].t, r.probes[0].max_error, r.probes[0].rms_error, static_cast<long long>(r.particles),
+        r.steps, r.copies_per_step, r.guarded, r.wall_seconds);
     // Issue #8: within 3 % of u_max (ring averages over 8 rings of width L). Measured 0.52 %.
     CHECK(r.probes[0].max_error <= 0.03);
     CHECK(r.guarded == 0);
@@ -205,8 +212,10 @@ TEST_SUITE("periodic") {
         double& slot = xa < 2 * L || xa > length - 2 * L ? err_seam : err_inner;
         slot = std::max(slot, e);
       }
-      std::printf("periodic axis %d: %ld pairs across the seam (%ld with copies), gradient error seam %.2e inner %.2e\n",
-                  axis, across, copies_across, err_seam, err_inner);
+      std::printf(
+          "periodic axis %d: %ld pairs across the seam (%ld with copies), gradient error seam %.2e inner "
+          "%.2e\n",
+          axis, across, copies_across, err_seam, err_inner);
       // On a lattice the stencils at the seam are those inside, translated: the same error up to rounding.
       CHECK(err_seam <= err_inner * (1.0 + 1e-6) + 1e-12);
       CHECK(err_inner > 0.0);
@@ -227,7 +236,8 @@ TEST_SUITE("periodic") {
       sim.run_until(0.1);
       const double du = sim.state().u().leftCols(sim.state().n_real()).cwiseAbs().maxCoeff();
       const double dx = (sim.state().x().leftCols(s0.n_real()) - s0.x()).cwiseAbs().maxCoeff();
-      std::printf("periodic box at rest: %ld steps, max |u| %.2e m/s, max |dx| %.2e m\n", sim.counters().steps, du, dx);
+      std::printf("periodic box at rest: %ld steps, max |u| %.2e m/s, max |dx| %.2e m\n",
+                  sim.counters().steps, du, dx);
       CHECK(du <= 1e-12);
       CHECK(dx <= 1e-12);
     }
@@ -240,8 +250,8 @@ TEST_SUITE("periodic") {
         sim.run_until(0.05);
         const double du = sim.state().u().leftCols(sim.state().n_real()).cwiseAbs().maxCoeff();
         const double dx = (sim.state().x().leftCols(c.s0.n_real()) - c.s0.x()).cwiseAbs().maxCoeff();
-        std::printf("periodic channel at rest (axis %d, %s): %ld steps, max |u| %.2e m/s, max |dx| %.2e m\n", axis,
-                    what, sim.counters().steps, du, dx);
+        std::printf("periodic channel at rest (axis %d, %s): %ld steps, max |u| %.2e m/s, max |dx| %.2e m\n",
+                    axis, what, sim.counters().steps, du, dx);
         CHECK(du <= 1e-12);
         CHECK(sim.counters().guarded == 0);
         return dx;
@@ -254,7 +264,8 @@ TEST_SUITE("periodic") {
     }
   }
 
-  TEST_CASE("periodic: a uniform body force accelerates a translating periodic box uniformly across the seams") {
+  TEST_CASE(
+      "periodic: a uniform body force accelerates a translating periodic box uniformly across the seams") {
     // Every particle starts at u0 and feels g: u = u0 + g t exactly (no velocity gradient, no pressure
     // gradient), the lattice moves rigidly through both seams and stays wrapped in the period box.
     scheme::lsmps_params<2> p;
@@ -290,7 +301,8 @@ TEST_SUITE("periodic") {
                 sim.counters().steps, du, dx);
     CHECK(inside);
     CHECK(du <= 1e-10 * u_exact.norm());
-    // Explicit Euler with the corrected velocity: x gains Δt u^{k+1}, so Σ Δt² g/2 = g t Δt/2 beyond the exact shift.
+    // Explicit Euler with the corrected velocity: x gains Δt u^{k+1}, so Σ Δt² g/2 = g t Δt/2 beyond the
+    // exact shift.
     CHECK(dx <= 0.5 * p.g.norm() * t * dt * (1.0 + 1e-6) + 1e-12);
   }
 }
@@ -328,7 +340,8 @@ struct pressure_channel {
 }  // namespace
 
 TEST_SUITE("pressure_boundary") {
-  TEST_CASE("boundary: pressure-boundary particles are placed on the faces with the element normal and pressure") {
+  TEST_CASE(
+      "boundary: pressure-boundary particles are placed on the faces with the element normal and pressure") {
     const auto faces = pressure_channel::faces(0.01, 0.02);
     const boundary::pressure_boundary<2> pb(faces, {20.0, 0.0}, 0.5e-3);
     REQUIRE(pb.size() == 40);
@@ -376,15 +389,16 @@ TEST_SUITE("pressure_boundary") {
     CHECK_THROWS_WITH_AS(boundary::pressure_boundary<2>(faces, {20.0, 0.0}, 0.5e-3, bad),
                          doctest::Contains("alpha_o"), mpskit::error);
     pressure_channel c;
-    CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_pressure_scene>(c.params(), cases::channel_state(c.ell, c.H, c.L),
-                                                                      &c.walls),
+    CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_pressure_scene>(
+                             c.params(), cases::channel_state(c.ell, c.H, c.L), &c.walls),
                          doctest::Contains("no pressure_boundary"), mpskit::error);
-    CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_scene>(c.params(), cases::channel_state(c.ell, c.H, c.L), &c.walls,
-                                                             &c.pb),
+    CHECK_THROWS_WITH_AS(simulation<cases::poiseuille_scene>(
+                             c.params(), cases::channel_state(c.ell, c.H, c.L), &c.walls, &c.pb),
                          doctest::Contains("without boundary::pressure"), mpskit::error);
   }
 
-  TEST_CASE("boundary: the normal-tube boundary velocity keeps a developed profile the isotropic mean flattens") {
+  TEST_CASE(
+      "boundary: the normal-tube boundary velocity keeps a developed profile the isotropic mean flattens") {
     // Fluid lattice (spacing L, 8 columns × 20 rows) beside the inlet face x = 0 of a 10 mm channel, carrying
     // the steady profile u_x = u(y) = 4 U y (H − y)/H²; the boundary particles sit on the face in line with
     // the rows. The normal tube (half-width L_p) holds only the boundary particle's own row, in which u is
@@ -423,8 +437,10 @@ TEST_SUITE("pressure_boundary") {
       if (std::abs(y - 0.5 * H) < 0.5 * L + 1e-12) iso_centre = (vi[0] - exact) / U;
       CHECK(vt[1] == 0.0);  // normal component only (n_p = +x)
     }
-    std::printf("boundary velocity of a developed profile: normal tube max err %.2e U, isotropic mean at the centre %.4f U\n",
-                tube_err, iso_centre);
+    std::printf(
+        "boundary velocity of a developed profile: normal tube max err %.2e U, isotropic mean at the centre "
+        "%.4f U\n",
+        tube_err, iso_centre);
     CHECK(tube_err <= 1e-14);
     CHECK(iso_centre < -0.005);  // the flattening, measured −0.0096 U (sign: slower than the fluid)
     boundary::pressure_params bad;
@@ -442,8 +458,8 @@ TEST_SUITE("pressure_boundary") {
     CHECK((a.x() - b.x()).cwiseAbs().maxCoeff() == 0.0);
     CHECK((a.diameters() - b.diameters()).cwiseAbs().maxCoeff() == 0.0);
     // Fine at the walls (0.25 mm within 1.5 mm), a ramp to 0.5 mm at the centre: the pieces tile each face
-    // (Σ L_p = 10 mm) and each is within 10 % of L* at its centre (measured 3.2 %: a piece is ≈ L* where it lies,
-    // rounded so that a whole number of pieces fits).
+    // (Σ L_p = 10 mm) and each is within 10 % of L* at its centre (measured 3.2 %: a piece is ≈ L* where it
+    // lies, rounded so that a whole number of pieces fits).
     const auto target = [](const vec<2>& y) {
       const double d = std::min(y[1], 0.01 - y[1]);
       return 0.25e-3 + std::clamp((d - 1.5e-3) / 2e-3, 0.0, 1.0) * 0.25e-3;
@@ -454,19 +470,22 @@ TEST_SUITE("pressure_boundary") {
       if (c.element(k) == 0) sum_in += c.diameters()[k];
       worst = std::max(worst, std::abs(c.diameters()[k] - target(c.x().col(k))) / target(c.x().col(k)));
     }
-    std::printf("variable spacing: %ld boundary particles, sum L_p on the inlet %.15f mm, worst |L_p - L*|/L* %.4f\n",
-                static_cast<long>(c.size()), sum_in * 1e3, worst);
+    std::printf(
+        "variable spacing: %ld boundary particles, sum L_p on the inlet %.15f mm, worst |L_p - L*|/L* %.4f\n",
+        static_cast<long>(c.size()), sum_in * 1e3, worst);
     CHECK(sum_in == doctest::Approx(0.01).epsilon(1e-12));
     CHECK(worst <= 0.10);
-    CHECK_THROWS_WITH_AS(boundary::pressure_boundary<2>(faces, {20.0, 0.0}, [](const vec<2>&) { return -1.0; }),
-                         doctest::Contains("spacing"), mpskit::error);
+    CHECK_THROWS_WITH_AS(
+        boundary::pressure_boundary<2>(faces, {20.0, 0.0}, [](const vec<2>&) { return -1.0; }),
+        doctest::Contains("spacing"), mpskit::error);
   }
 
   TEST_CASE("boundary: outflow by face distance removes a particle arriving between two boundary particles") {
     // Outlet face x = 20 mm, boundary particles at y = 0.25, 0.75, ... mm (L = 0.5 mm) flowing out. A fluid
     // particle 0.1 L before the face, halfway between two of them (lateral offset L/2): its distance to the
-    // nearest boundary particle is √(0.1² + 0.5²) L = 0.51 L > α_o L = 0.25 L, so Tanaka's rule keeps it at the
-    // face; the face rule (h = 0.1 L < α_o L) removes it. A particle 0.3 L before the face stays with both.
+    // nearest boundary particle is √(0.1² + 0.5²) L = 0.51 L > α_o L = 0.25 L, so Tanaka's rule keeps it at
+    // the face; the face rule (h = 0.1 L < α_o L) removes it. A particle 0.3 L before the face stays with
+    // both.
     const double L = 0.5e-3;
     const auto faces = pressure_channel::faces(0.01, 0.02);
     for (auto rule : {boundary::outflow_rule::particle_distance, boundary::outflow_rule::face_distance}) {
@@ -478,11 +497,13 @@ TEST_SUITE("pressure_boundary") {
       x.col(0) = vec<2>(0.02 - 0.1 * L, 5.0e-3);  // between the boundary particles at y = 4.75 and 5.25 mm
       x.col(1) = vec<2>(0.02 - 0.3 * L, 2.5e-3);
       for (index_t k = 0; k < nb; ++k) x.col(nf + k) = pb.x().col(k);
-      Eigen::VectorXd Ls = Eigen::VectorXd::Constant(nf + nb, L), V = Eigen::VectorXd::Constant(nf + nb, L * L);
+      Eigen::VectorXd Ls = Eigen::VectorXd::Constant(nf + nb, L),
+                      V = Eigen::VectorXd::Constant(nf + nb, L * L);
       search::neighbour_list<2> nl;
       nl.build(exec::seq{}, x, search::per_particle_radius{&Ls, 3.1});
       points<2> ub(2, nb);
-      for (index_t k = 0; k < nb; ++k) ub.col(k) = 0.1 * pb.normals().col(k) * (pb.element(k) == 1 ? -1.0 : 1.0);
+      for (index_t k = 0; k < nb; ++k)
+        ub.col(k) = 0.1 * pb.normals().col(k) * (pb.element(k) == 1 ? -1.0 : 1.0);
       std::vector<std::uint8_t> remove(static_cast<std::size_t>(nf), 0);
       boundary::pressure_flux flux;
       pb.mark_outflow(x, Ls, nf, nf, ub, nl, remove, flux, V);
@@ -492,7 +513,8 @@ TEST_SUITE("pressure_boundary") {
     }
   }
 
-  TEST_CASE("boundary: the PPE with Dirichlet pressure boundaries and no free surface gives the linear pressure") {
+  TEST_CASE(
+      "boundary: the PPE with Dirichlet pressure boundaries and no free surface gives the linear pressure") {
     // First step from rest: u′ = 0, so the det F source vanishes and the PPE is Laplace's equation with
     // p = Δp at the inlet particles, 0 at the outlet and the wall rows: p = Δp (1 − x/ℓ), which LSMPS of
     // order 2 reproduces exactly; the corrected velocity is Δt G/ρ everywhere.
@@ -510,19 +532,23 @@ TEST_SUITE("pressure_boundary") {
       if (s0.x()(1, i) > 3.0 * c.L && s0.x()(1, i) < c.H - 3.0 * c.L)
         eu = std::max(eu, (st.u().col(i) - vec<2>(u1, 0.0)).norm() / u1);
     }
-    std::printf("pressure boundary first step: max |p - lin|/dp %.2e, max |u - dt G/rho|/(dt G/rho) %.2e, pinned %ld\n", ep,
-                eu, sim.counters().pinned_components);
+    std::printf(
+        "pressure boundary first step: max |p - lin|/dp %.2e, max |u - dt G/rho|/(dt G/rho) %.2e, pinned "
+        "%ld\n",
+        ep, eu, sim.counters().pinned_components);
     CHECK(ep <= 1e-7);  // solver tolerance 1e-8 (relative residual)
     CHECK(eu <= 1e-5);
-    CHECK(sim.counters().pinned_components == 0);  // the boundary particles are Dirichlet rows: nothing floats
+    CHECK(sim.counters().pinned_components ==
+          0);                  // the boundary particles are Dirichlet rows: nothing floats
     CHECK(st.n_ghost() == 0);  // pressure-boundary scenes end a step with the ghosts cleared (resize path)
   }
 }
 
 namespace {
-/// The multi-diameter channel's shared checks: the issue's volume balance (2 % of Q_in over the last 0.1 s), a
-/// flow established and renewed through both faces (Bernoulli from 100 Pa: ≈ 0.45 m/s in the narrow section,
-/// Q_in ≈ 0.1 m/s across 30 mm), the particle ledger V(t) − V(0) = V_in − V_out, no guard activation.
+/// The multi-diameter channel's shared checks: the issue's volume balance (2 % of Q_in over the last 0.1 s),
+/// a flow established and renewed through both faces (Bernoulli from 100 Pa: ≈ 0.45 m/s in the narrow
+/// section, Q_in ≈ 0.1 m/s across 30 mm), the particle ledger V(t) − V(0) = V_in − V_out, no guard
+/// activation.
 void check_multi_diameter_flow(const cases::multi_diameter_result& r) {
   CHECK(r.balance <= 0.02);
   CHECK(r.q_in > 1e-3);
@@ -535,71 +561,82 @@ void check_multi_diameter_flow(const cases::multi_diameter_result& r) {
 
 TEST_SUITE("multi_diameter_channel") {
   TEST_CASE("channel: multi-diameter channel, 30 mm -> 10 mm taper, 100 Pa -> 0 Pa (Tanaka 2018 §5.3, A3)") {
-    // Issue #8's CI case: L = 1 mm, μ = 0.001 Pa s, to 0.3 s; the volume balance |Q_in − Q_out − dV/dt| over the
-    // last 0.1 s, Q the velocity fluxes through slabs 3 L inside the faces (the particle ledger closes by
+    // Issue #8's CI case: L = 1 mm, μ = 0.001 Pa s, to 0.3 s; the volume balance |Q_in − Q_out − dV/dt| over
+    // the last 0.1 s, Q the velocity fluxes through slabs 3 L inside the faces (the particle ledger closes by
     // construction and is checked apart). α_o = 0.5 (the case's choice, docs/channel.md).
     cases::multi_diameter_config c;
     const auto r = cases::run_multi_diameter(c);
-    std::printf("multi-diameter channel: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), in %ld out %ld behind "
-                "%ld, guarded %ld, ledger %.1e, p in [%.0f, %.0f] Pa, |u|max %.3f m/s, %ld steps, %.1f s\n",
-                r.balance, r.q_in, r.q_out, r.dvdt, r.inflow, r.outflow, r.outflow_behind, r.guarded, r.ledger_error,
-                r.p_min, r.p_max, r.u_max, r.steps, r.wall_seconds);
+    std::printf(
+        "multi-diameter channel: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), in %ld out %ld "
+        "behind "
+        "%ld, guarded %ld, ledger %.1e, p in [%.0f, %.0f] Pa, |u|max %.3f m/s, %ld steps, %.1f s\n",
+        r.balance, r.q_in, r.q_out, r.dvdt, r.inflow, r.outflow, r.outflow_behind, r.guarded, r.ledger_error,
+        r.p_min, r.p_max, r.u_max, r.steps, r.wall_seconds);
     // measured (ILUT): balance 0.64 % (1.02 % with thin_walls on, 1.23 % before deviation 14 of
     // docs/lsmps_scheme.md), Q_in 2.86e-3 m²/s, 562 created, 582 removed
     check_multi_diameter_flow(r);
     // Not an explosion: |u| below the Bernoulli speed of the whole 100 Pa drop, √(2Δp/ρ) = 0.45 m/s, with
-    // room for the pressure pulses (measured max 0.44 m/s; pressure in [−1210, 1162] Pa: one-step pulses over the whole
-    // channel after discrete events, reported, not bounded: docs/channel.md).
+    // room for the pressure pulses (measured max 0.44 m/s; pressure in [−1210, 1162] Pa: one-step pulses over
+    // the whole channel after discrete events, reported, not bounded: docs/channel.md).
     CHECK(r.u_max <= 1.0);
   }
 }
 
 TEST_SUITE("multi_diameter_channel_multires") {
-  TEST_CASE("channel: multi-diameter channel with splitting into the narrow section, 2:1 (Tanaka 2018 §5.3, A3)") {
-    // Issue #9: the channel of the multi_diameter_channel label started at L = 1 mm everywhere; the target diameter
-    // depends on the distance d from the outlet's midpoint (90, 0) mm, as in the paper (Fig. 12b; the function is
-    // not in the text, this one is ours): 0.5 mm for d ≤ 30 mm (the narrow section), a linear ramp to 1.05 mm at
-    // d = 60 mm, so particles split twice (1 → 0.71 → 0.5 mm) entering the narrow section. 2:1 in diameter (the
-    // paper 0.25–0.75 mm, 3:1). The faces carry the target spacing (outlet 0.5 mm, inlet 1 mm), so inflow creates
-    // coarse particles. Same balance as the single-resolution label, over the last 0.1 s, here of 0.25 s (0.3 s
-    // until 2026-11-29, cut for issue #9's CI budget: 119 -> 95 s; the balance is a conservation check, it needs
-    // no steady flow: measured 0.93 % at 0.3 s, 0.18 % at 0.25 s, Q_in 3.07e-3 and 2.67e-3 m²/s, with thin walls on;
-    // 0.07 % at 0.25 s with thin walls off, the case's setting since 2026-11-29).
+  TEST_CASE(
+      "channel: multi-diameter channel with splitting into the narrow section, 2:1 (Tanaka 2018 §5.3, A3)") {
+    // Issue #9: the channel of the multi_diameter_channel label started at L = 1 mm everywhere; the target
+    // diameter depends on the distance d from the outlet's midpoint (90, 0) mm, as in the paper (Fig. 12b;
+    // the function is not in the text, this one is ours): 0.5 mm for d ≤ 30 mm (the narrow section), a linear
+    // ramp to 1.05 mm at d = 60 mm, so particles split twice (1 → 0.71 → 0.5 mm) entering the narrow section.
+    // 2:1 in diameter (the paper 0.25–0.75 mm, 3:1). The faces carry the target spacing (outlet 0.5 mm, inlet
+    // 1 mm), so inflow creates coarse particles. Same balance as the single-resolution label, over the last
+    // 0.1 s, here of 0.25 s (0.3 s until 2026-11-29, cut for issue #9's CI budget: 119 -> 95 s; the balance
+    // is a conservation check, it needs no steady flow: measured 0.93 % at 0.3 s, 0.18 % at 0.25 s, Q_in
+    // 3.07e-3 and 2.67e-3 m²/s, with thin walls on; 0.07 % at 0.25 s with thin walls off, the case's setting
+    // since 2026-11-29).
     cases::multi_diameter_config c;
     const double Lc = c.L, Lf = 0.5 * c.L;
     c.t_end = 0.25;
     cases::refine_narrow_section(c, Lf);
-    // ILUT factors kept across changes of the unknowns (opt-in, docs/lsmps_scheme.md deviation 7; `channel --multi
-    // --ilut-across`): since 2026-12-04, for issue #9's CI budget on a slower machine. ILUT (factorisation and
-    // triangular solves) took 42 % of the first 40 s of this run with a fresh factorisation at every solve (the
-    // unknowns change at every step: inflow, outflow, splits) and 29 % with the kept factors (perf samples); 75 s
-    // alone (measured). Each solve still reaches the same tolerance on the current matrix, and the printed numbers
-    // are those of fresh factors but for the last digit of p_min: balance 0.07 %, |u| 0.366 m/s, p in [−745, 1209]
-    // Pa (−744 fresh), 2585 splits, 438 created, 1772 removed, 1442 steps (both measured 2026-12-04).
+    // ILUT factors kept across changes of the unknowns (opt-in, docs/lsmps_scheme.md deviation 7; `channel
+    // --multi --ilut-across`): since 2026-12-04, for issue #9's CI budget on a slower machine. ILUT
+    // (factorisation and triangular solves) took 42 % of the first 40 s of this run with a fresh
+    // factorisation at every solve (the unknowns change at every step: inflow, outflow, splits) and 29 % with
+    // the kept factors (perf samples); 75 s alone (measured). Each solve still reaches the same tolerance on
+    // the current matrix, and the printed numbers are those of fresh factors but for the last digit of p_min:
+    // balance 0.07 %, |u| 0.366 m/s, p in [−745, 1209] Pa (−744 fresh), 2585 splits, 438 created, 1772
+    // removed, 1442 steps (both measured 2026-12-04).
     c.params.solver.ilut_reuse_across_changes = true;
     const auto r = cases::run_multi_diameter<cases::multi_diameter_multires_scene>(c);
-    std::printf("multi-diameter channel multires: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), particles %ld -> "
-                "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld behind %ld, guarded %ld, ledger %.1e, p in "
-                "[%.0f, %.0f] Pa (min at (%.1f, %.1f) mm, t = %.4f s; max at (%.1f, %.1f) mm, t = %.4f s), |u|max %.3f m/s (last 0.1 s: %.3f), %ld steps, %.1f s\n",
-                r.balance, r.q_in, r.q_out, r.dvdt, static_cast<long>(r.particles), static_cast<long>(r.particles_end),
-                r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow, r.outflow, r.outflow_behind, r.guarded,
-                r.ledger_error, r.p_min, r.p_max, r.p_min_at[0] * 1e3, r.p_min_at[1] * 1e3, r.p_min_t, r.p_max_at[0] * 1e3,
-                r.p_max_at[1] * 1e3, r.p_max_t, r.u_max,
-                r.u_max_window, r.steps, r.wall_seconds);
+    std::printf(
+        "multi-diameter channel multires: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), particles "
+        "%ld -> "
+        "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld behind %ld, guarded %ld, ledger "
+        "%.1e, p in "
+        "[%.0f, %.0f] Pa (min at (%.1f, %.1f) mm, t = %.4f s; max at (%.1f, %.1f) mm, t = %.4f s), |u|max "
+        "%.3f m/s (last 0.1 s: %.3f), %ld steps, %.1f s\n",
+        r.balance, r.q_in, r.q_out, r.dvdt, static_cast<long>(r.particles),
+        static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow,
+        r.outflow, r.outflow_behind, r.guarded, r.ledger_error, r.p_min, r.p_max, r.p_min_at[0] * 1e3,
+        r.p_min_at[1] * 1e3, r.p_min_t, r.p_max_at[0] * 1e3, r.p_max_at[1] * 1e3, r.p_max_t, r.u_max,
+        r.u_max_window, r.steps, r.wall_seconds);
     // Particles split entering the narrow section: the fine size is reached and the coarse one kept upstream.
     CHECK(r.L_min == doctest::Approx(Lf).epsilon(1e-12));
     CHECK(r.L_max == doctest::Approx(Lc).epsilon(1e-12));
     CHECK(r.splits > 1000);  // measured 2585 (3064 to 0.3 s with thin walls on)
-    // Measured (ILUT, thin walls on) to 0.25 s: balance 0.18 %, Q_in 2.67e-3 m²/s, 438 created, 1773 removed (to 0.3 s: 0.93 %,
-    // 0.57 % with the Jacobi BiCGSTAB, single resolution 1.23 %; 598 created, 2410 removed); the ledger
-    // closes through every split as through the boundary events (splits halve the volume exactly).
+    // Measured (ILUT, thin walls on) to 0.25 s: balance 0.18 %, Q_in 2.67e-3 m²/s, 438 created, 1773 removed
+    // (to 0.3 s: 0.93 %, 0.57 % with the Jacobi BiCGSTAB, single resolution 1.23 %; 598 created, 2410
+    // removed); the ledger closes through every split as through the boundary events (splits halve the volume
+    // exactly).
     check_multi_diameter_flow(r);
-    // Not an explosion once established: over the window |u| below twice the Bernoulli speed of the whole drop
-    // (0.45 m/s). The start-up too: over the whole run |u| ≤ 0.6 m/s (measured 0.364 to 0.25 s, 0.405 to 0.3 s;
-    // p in [−455, 870] Pa to 0.25 s; [−622, 870] Pa with deviation 14 of docs/lsmps_scheme.md; with thin_walls off,
-    // the case's setting since 2026-11-29: balance 0.07 %, |u| 0.366 m/s, p in [−744, 1209] Pa).
-    // Before fluid rows with a diagonal ≥ 0 became p = 0 rows (docs/lsmps_scheme.md, deviation 10), the first
-    // splits at the convex corner (60, −5) mm gave p in [−8.8, +38] kPa and |u| 0.73 m/s at t ≈ 8 ms.
+    // Not an explosion once established: over the window |u| below twice the Bernoulli speed of the whole
+    // drop (0.45 m/s). The start-up too: over the whole run |u| ≤ 0.6 m/s (measured 0.364 to 0.25 s, 0.405 to
+    // 0.3 s; p in [−455, 870] Pa to 0.25 s; [−622, 870] Pa with deviation 14 of docs/lsmps_scheme.md; with
+    // thin_walls off, the case's setting since 2026-11-29: balance 0.07 %, |u| 0.366 m/s, p in [−744,
+    // 1209] Pa). Before fluid rows with a diagonal ≥ 0 became p = 0 rows (docs/lsmps_scheme.md, deviation
+    // 10), the first splits at the convex corner (60, −5) mm gave p in [−8.8, +38] kPa and |u| 0.73 m/s at
+    // t ≈ 8 ms.
     CHECK(r.u_max_window <= 1.0);
     CHECK(r.u_max <= 0.6);
   }
@@ -610,32 +647,35 @@ using cases::poiseuille_pressure_multires_scene;
 
 TEST_SUITE("pressure_boundary") {
   TEST_CASE("boundary: with split/merge, faces coarser than the target at their inflow points are refused") {
-    // Inflow creates particles of the boundary particle's diameter L_p; where L* < β_s L_p they would split on
-    // arrival beside the face. The 0.5 mm faces of pressure_channel against a target of 0.25 mm within 1.5 mm of
-    // a wall are refused; the same faces against a target of 0.5 mm everywhere (keep), and finer faces (0.25 mm,
-    // their inflow particles merge in the fluid) against that target, are accepted.
+    // Inflow creates particles of the boundary particle's diameter L_p; where L* < β_s L_p they would split
+    // on arrival beside the face. The 0.5 mm faces of pressure_channel against a target of 0.25 mm within
+    // 1.5 mm of a wall are refused; the same faces against a target of 0.5 mm everywhere (keep), and finer
+    // faces (0.25 mm, their inflow particles merge in the fluid) against that target, are accepted.
     pressure_channel c;
     auto p = c.params();
     const double H = c.H;
     p.resolution.target_diameter = [H](const vec<2>& x) {
       return std::min(x[1], H - x[1]) < 1.5e-3 ? 0.25e-3 : 0.5e-3;
     };
-    CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls,
-                                                                        &c.pb),
+    CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(
+                             p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb),
                          doctest::Contains("split on arrival"), mpskit::error);
     p.resolution.split = false;  // nothing splits: accepted
-    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb));
+    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L),
+                                                                 &c.walls, &c.pb));
     p.resolution.split = true;
     p.resolution.target_diameter = [](const vec<2>&) { return 0.5e-3; };
-    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb));
+    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L),
+                                                                 &c.walls, &c.pb));
     const boundary::pressure_boundary<2> fine(pressure_channel::faces(H, c.ell), {20.0, 0.0}, 0.25e-3);
-    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls, &fine));
+    CHECK_NOTHROW(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L),
+                                                                 &c.walls, &fine));
     // Context targets (wall distance) are evaluated at the inflow point x_p + α_i L_p n_p as well.
     p.resolution.target_diameter = [](const resolution::target_point<2>& tp) {
       return tp.wall_distance < 1.5e-3 ? 0.25e-3 : 0.5e-3;
     };
-    CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(p, cases::channel_state(c.ell, H, c.L), &c.walls,
-                                                                        &c.pb),
+    CHECK_THROWS_WITH_AS(simulation<poiseuille_pressure_multires_scene>(
+                             p, cases::channel_state(c.ell, H, c.L), &c.walls, &c.pb),
                          doctest::Contains("split on arrival"), mpskit::error);
   }
 }
@@ -652,8 +692,8 @@ TEST_SUITE("poiseuille_multires") {
     c.dt = 0.1 * Lf * Lf / (c.mu / c.rho);
     // To 0.1 s (one time constant H²/(π²ν) = 0.1 s of the slowest mode): the start-up series (the analytic
     // transient) at 0.05 s and the end. The steady profile is not checked here: at 0.1 s the flow itself
-    // still misses it by 32/π³ e⁻¹ = 38 %; to 0.5 s the same run gives 0.74 % against it and 0.11 % against the series
-    // (docs/resolution.md "Poiseuille flow with a 2:1 size ratio"). The label ran this to 0.5 s
+    // still misses it by 32/π³ e⁻¹ = 38 %; to 0.5 s the same run gives 0.74 % against it and 0.11 % against
+    // the series (docs/resolution.md "Poiseuille flow with a 2:1 size ratio"). The label ran this to 0.5 s
     // until 2026-11-29; cut to 0.3 s (84 → ≈ 50 s) when the obstacle case joined dam_break_multires, to 0.2 s
     // (≈ 38 s) on 2026-11-29 after a fresh-clone run on a slower machine measured issue #9's labels at 555 s
     // against their 8 minutes, and to 0.1 s (38 → 14 s solo) on 2026-12-04 on a slower machine still (the
@@ -663,19 +703,22 @@ TEST_SUITE("poiseuille_multires") {
     c.params.resolution.target_diameter = cases::a2_target(H, Lf, Lc);
     const auto r = cases::run_poiseuille_periodic<poiseuille_multires_scene>(c);
     for (const auto& pr : r.probes)
-      std::printf("poiseuille multires t = %.4f s: max err %.4f rms %.4f\n", pr.t, pr.max_error, pr.rms_error);
-    std::printf("poiseuille multires end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, particles %ld -> "
-                "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, %ld steps, %.1f s\n",
-                r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, static_cast<long>(r.particles),
-                static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.steps,
-                r.wall_seconds);
+      std::printf("poiseuille multires t = %.4f s: max err %.4f rms %.4f\n", pr.t, pr.max_error,
+                  pr.rms_error);
+    std::printf(
+        "poiseuille multires end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, particles %ld "
+        "-> "
+        "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, %ld steps, %.1f s\n",
+        r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, static_cast<long>(r.particles),
+        static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.steps,
+        r.wall_seconds);
     // The resolution really is 2:1: fine particles at the walls, the coarse ones kept in the centre.
     CHECK(r.L_min == doctest::Approx(Lf).epsilon(1e-12));
     CHECK(r.L_max == doctest::Approx(Lc).epsilon(1e-12));
     CHECK(r.splits > 100);
     CHECK(r.particles_end > r.particles);
-    // Issue #9: the profile within 2 % of analytic, the start-up series at 0.05 and 0.1 s (measured 0.05 % and
-    // 0.06 %; 0.06 % at 0.2 s; against the steady profile 38 % at 0.1 s, the flow's own lag).
+    // Issue #9: the profile within 2 % of analytic, the start-up series at 0.05 and 0.1 s (measured 0.05 %
+    // and 0.06 %; 0.06 % at 0.2 s; against the steady profile 38 % at 0.1 s, the flow's own lag).
     for (const auto& pr : r.probes) {
       CAPTURE(pr.t);
       CHECK(pr.max_error <= 0.02);
@@ -685,15 +728,18 @@ TEST_SUITE("poiseuille_multires") {
 }
 
 TEST_SUITE("graded_start") {
-  // Label graded_start (poiseuille_multires until 2026-12-06): resolution::graded_lattice is ours, not one of issue
-  // #9's cases, so it runs under its own label and issue #9's CI budget counts the issue's cases.
-  TEST_CASE("channel: periodic Poiseuille 2:1 from a graded start: the split start's particles, no event, the series") {
-    // The periodic 2:1 channel above started from resolution::graded_lattice (poiseuille_config::graded_start)
-    // instead of splitting the 0.5 mm lattice in its first steps. Two independent paths to the same layout: the
-    // stepper's split_merge, run from the lattice until its splits stop (10 steps; they all happen in the first
-    // two), and the graded lattice must give the same particle count and size range; the graded start is a fixed
-    // point of the trigger, so no particle splits or merges while the flow starts up (to 0.05 s, 800 steps); and
-    // the profile is within the issue's 2 % of the start-up series (measured 0.05 % at 0.05 s, as the split start).
+  // Label graded_start (poiseuille_multires until 2026-12-06): resolution::graded_lattice is ours, not one of
+  // issue #9's cases, so it runs under its own label and issue #9's CI budget counts the issue's cases.
+  TEST_CASE(
+      "channel: periodic Poiseuille 2:1 from a graded start: the split start's particles, no event, the "
+      "series") {
+    // The periodic 2:1 channel above started from resolution::graded_lattice
+    // (poiseuille_config::graded_start) instead of splitting the 0.5 mm lattice in its first steps. Two
+    // independent paths to the same layout: the stepper's split_merge, run from the lattice until its splits
+    // stop (10 steps; they all happen in the first two), and the graded lattice must give the same particle
+    // count and size range; the graded start is a fixed point of the trigger, so no particle splits or merges
+    // while the flow starts up (to 0.05 s, 800 steps); and the profile is within the issue's 2 % of the
+    // start-up series (measured 0.05 % at 0.05 s, as the split start).
     cases::poiseuille_config c;
     const double Lf = 0.25e-3, H = c.H, Lc = c.L;
     c.dt = 0.1 * Lf * Lf / (c.mu / c.rho);
@@ -705,10 +751,12 @@ TEST_SUITE("graded_start") {
     c.graded_start = true;
     c.t_end = 0.05;
     const auto rg = cases::run_poiseuille_periodic<poiseuille_multires_scene>(c);
-    std::printf("poiseuille 2:1 graded start: %ld particles (split start after %ld steps: %ld, %ld splits), L in [%.3f, "
-                "%.3f] mm, splits %ld merges %ld to t = %.3f s, series err %.4f, %.1f s\n",
-                static_cast<long>(rg.particles), rs.steps, static_cast<long>(rs.particles_end), rs.splits,
-                rg.L_min * 1e3, rg.L_max * 1e3, rg.splits, rg.merges, rg.end.t, rg.end.max_error, rg.wall_seconds);
+    std::printf(
+        "poiseuille 2:1 graded start: %ld particles (split start after %ld steps: %ld, %ld splits), L in "
+        "[%.3f, "
+        "%.3f] mm, splits %ld merges %ld to t = %.3f s, series err %.4f, %.1f s\n",
+        static_cast<long>(rg.particles), rs.steps, static_cast<long>(rs.particles_end), rs.splits,
+        rg.L_min * 1e3, rg.L_max * 1e3, rg.splits, rg.merges, rg.end.t, rg.end.max_error, rg.wall_seconds);
     CHECK(rs.splits > 100);
     CHECK(rg.particles == rs.particles_end);
     CHECK(rg.particles_end == rg.particles);
@@ -718,33 +766,36 @@ TEST_SUITE("graded_start") {
     CHECK(rg.merges == 0);
     CHECK(rg.guarded == 0);
     CHECK(rg.end.max_error <= 0.02);
-    // The two paths give the same count but not the same points (split children sit on the parent's split line).
-    // Refused: a graded start without a target, and along y (the graded lattice grades across y).
+    // The two paths give the same count but not the same points (split children sit on the parent's split
+    // line). Refused: a graded start without a target, and along y (the graded lattice grades across y).
     cases::poiseuille_config bad = c;
     bad.params.resolution.target_diameter = {};
-    CHECK_THROWS_WITH_AS(cases::channel_start(bad, bad.length), doctest::Contains("graded_start needs"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::channel_start(bad, bad.length), doctest::Contains("graded_start needs"),
+                         mpskit::error);
     bad = c;
     bad.axis = 1;
     CHECK_THROWS_WITH_AS(cases::channel_start(bad, bad.length), doctest::Contains("axis 0"), mpskit::error);
-    // A layer at an odd generation beside the walls (L* = 0.31 mm: one split, 0.354 mm diagonal pairs 0.125 mm from
-    // the wall) would start with a gap there: refused, with the remedy.
+    // A layer at an odd generation beside the walls (L* = 0.31 mm: one split, 0.354 mm diagonal pairs
+    // 0.125 mm from the wall) would start with a gap there: refused, with the remedy.
     bad = c;
     bad.params.resolution.target_diameter = [](const vec<2>&) { return 0.31e-3; };
-    CHECK_THROWS_WITH_AS(cases::channel_start(bad, bad.length), doctest::Contains("odd number of splits beside a wall"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::channel_start(bad, bad.length),
+                         doctest::Contains("odd number of splits beside a wall"), mpskit::error);
   }
 }
 
 TEST_SUITE("poiseuille_multires") {
-  TEST_CASE("channel: pressure-driven Poiseuille with a 2:1 size ratio (split/merge with pressure boundaries)") {
+  TEST_CASE(
+      "channel: pressure-driven Poiseuille with a 2:1 size ratio (split/merge with pressure boundaries)") {
     // The 20 mm channel of the poiseuille label driven by Δp = 20 Pa through pressure boundaries, with the
-    // target of the periodic multi-resolution case (0.25 mm within 1.5 mm of a wall, ramp to 0.525 mm at 3.5 mm):
-    // the wall rows split in the first steps, the boundary particles are placed with the target spacing (capped
-    // at 0.5 mm) so inflow creates particles of the local target diameter. Fixed Δt = 0.1 (0.24 mm)²/ν (the
-    // smallest boundary piece is 0.248 mm). To 0.05 s in CI (0.1 s until 2026-11-29, 0.07 s until 2026-12-04, 0.06 s
-    // until 2026-12-06, cut for issue #9's CI budget; 33.3 -> 28.6 s from 0.06 s, one thread; by 0.05 s 64 particles
-    // created and 85 removed, 89 / 109 by 0.06 s, 118 / 143 by 0.07 s; 0.5 s in docs/resolution.md: 0.21 % /
-    // 0.78 %). The probe is at half the run (0.025 s), so the two profile checks below see the start-up at two stages.
+    // target of the periodic multi-resolution case (0.25 mm within 1.5 mm of a wall, ramp to 0.525 mm at
+    // 3.5 mm): the wall rows split in the first steps, the boundary particles are placed with the target
+    // spacing (capped at 0.5 mm) so inflow creates particles of the local target diameter. Fixed Δt = 0.1
+    // (0.24 mm)²/ν (the smallest boundary piece is 0.248 mm). To 0.05 s in CI (0.1 s until 2026-11-29, 0.07 s
+    // until 2026-12-04, 0.06 s until 2026-12-06, cut for issue #9's CI budget; 33.3 -> 28.6 s from 0.06 s,
+    // one thread; by 0.05 s 64 particles created and 85 removed, 89 / 109 by 0.06 s, 118 / 143 by 0.07 s;
+    // 0.5 s in docs/resolution.md: 0.21 % / 0.78 %). The probe is at half the run (0.025 s), so the two
+    // profile checks below see the start-up at two stages.
     cases::poiseuille_config c;
     c.length = 0.02;
     c.t_end = 0.05;
@@ -755,11 +806,14 @@ TEST_SUITE("poiseuille_multires") {
     c.params.resolution.target_diameter = target;
     c.boundary_spacing = [=](const vec<2>& x) { return std::min(Lc, target(x)); };
     const auto r = cases::run_poiseuille_pressure<poiseuille_pressure_multires_scene>(c);
-    std::printf("pressure-driven poiseuille multires: t = %.3f s max err %.4f; end t = %.3f s series err %.4f, particles %ld "
-                "-> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld, ledger %.1e, guarded %ld, %.1f s\n",
-                r.probes[0].t, r.probes[0].max_error, r.end.t, r.end.max_error, static_cast<long>(r.particles),
-                static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow,
-                r.outflow, r.ledger_error, r.guarded, r.wall_seconds);
+    std::printf(
+        "pressure-driven poiseuille multires: t = %.3f s max err %.4f; end t = %.3f s series err %.4f, "
+        "particles %ld "
+        "-> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld, ledger %.1e, guarded %ld, %.1f "
+        "s\n",
+        r.probes[0].t, r.probes[0].max_error, r.end.t, r.end.max_error, static_cast<long>(r.particles),
+        static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow,
+        r.outflow, r.ledger_error, r.guarded, r.wall_seconds);
     CHECK(r.splits > 500);
     CHECK(r.L_min < 0.26e-3);
     CHECK(r.L_max > 0.45e-3);
@@ -768,27 +822,31 @@ TEST_SUITE("poiseuille_multires") {
     // Volume: V(t) − V(0) = V_in − V_out through every split and boundary event (splits halve exactly).
     CHECK(r.ledger_error <= 1e-12);
     CHECK(r.guarded == 0);
-    // Issue #9: the profile within 2 % of analytic (the series; measured 0.05 % at 0.025 s, 0.06 % at 0.05 s).
+    // Issue #9: the profile within 2 % of analytic (the series; measured 0.05 % at 0.025 s, 0.06 % at
+    // 0.05 s).
     CHECK(r.probes[0].max_error <= 0.02);
     CHECK(r.end.max_error <= 0.02);
   }
 }
 
 TEST_SUITE("poiseuille") {
-  TEST_CASE("channel: 3D square duct driven through pressure inflow/outflow faces, against the start-up series") {
+  TEST_CASE(
+      "channel: 3D square duct driven through pressure inflow/outflow faces, against the start-up series") {
     // Issue #8 item 1 in 3D: W = 4 mm square duct, ℓ = 8 mm, L = 0.5 mm (1024 particles), Δp = 8 Pa (G = 1000
-    // Pa/m), μ = 0.1 Pa s, the faces two triangles each (boundary particles L_p = 0.47 mm), to 0.05 s (six times
-    // the slowest mode's time constant W²/(2π²ν) = 8 ms). Error: max over the (y, z) cells of the mid-length slab
-    // of |ū − u(y, z, t)| / u_c against the double sine series (examples/cases/duct.hpp), u_c = 0.0118 m/s the
-    // steady centre velocity. Measured 1.34 % (RMS 0.85 %; 2.0 % when the case was written, docs/channel.md); the
-    // same duct periodic with the body force: 2.1 % (1.4 %), so the faces add nothing measurable; 3 % is the
-    // issue's 3D tolerance (pipe).
+    // Pa/m), μ = 0.1 Pa s, the faces two triangles each (boundary particles L_p = 0.47 mm), to 0.05 s (six
+    // times the slowest mode's time constant W²/(2π²ν) = 8 ms). Error: max over the (y, z) cells of the
+    // mid-length slab of |ū − u(y, z, t)| / u_c against the double sine series (examples/cases/duct.hpp),
+    // u_c = 0.0118 m/s the steady centre velocity. Measured 1.34 % (RMS 0.85 %; 2.0 % when the case was
+    // written, docs/channel.md); the same duct periodic with the body force: 2.1 % (1.4 %), so the faces add
+    // nothing measurable; 3 % is the issue's 3D tolerance (pipe).
     cases::duct_config c;
     const auto r = cases::run_duct(c);
-    std::printf("3D pressure duct: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles %ld -> %ld, "
-                "ledger %.1e, guarded %ld, %.1f s\n",
-                r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
-                static_cast<long>(r.particles_end), r.ledger_error, r.guarded, r.wall_seconds);
+    std::printf(
+        "3D pressure duct: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles %ld "
+        "-> %ld, "
+        "ledger %.1e, guarded %ld, %.1f s\n",
+        r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
+        static_cast<long>(r.particles_end), r.ledger_error, r.guarded, r.wall_seconds);
     CHECK(r.max_error <= 0.03);
     CHECK(r.outflow > 20);  // the first layer has left through the outlet face
     CHECK(r.inflow > 0);
@@ -798,25 +856,31 @@ TEST_SUITE("poiseuille") {
 }
 
 TEST_SUITE("poiseuille_multires") {
-  TEST_CASE("channel: 3D square duct through pressure faces, split near the walls (split/merge with pressure boundaries in 3D)") {
-    // Issue #9 item 3 in 3D: the duct of the poiseuille label (W = 4 mm, ℓ = 8 mm, L = 0.5 mm, Δp = 8 Pa, μ = 0.1
-    // Pa s) refined by cases::refine_duct_walls: target L* = 0.75 L within 0.75 mm of a wall, a linear ramp to
-    // 1.05 L at 1.5 mm (ours): the particles of the outer band split once (β_s L = 0.897 L > 0.75 L; children
-    // 2^(-1/3) L = 0.397 mm), the core stays coarse. The faces carry the target spacing (boundary particles L_p =
-    // 0.354 mm). With the uniform 0.47 mm face spacing of the single-resolution case instead, the refined flow lags
-    // by 3.8 % at 0.02 s: the mid-length pressure gradient is 4.4 % low, the extra drop sits in the slabs beside the
-    // faces (measured 2026-11-26). To 0.02 s in CI (2.5 time constants W²/(2π²ν) = 8 ms); 0.05 s in
-    // docs/resolution.md and `channel --duct-multires`.
+  TEST_CASE(
+      "channel: 3D square duct through pressure faces, split near the walls (split/merge with pressure "
+      "boundaries in 3D)") {
+    // Issue #9 item 3 in 3D: the duct of the poiseuille label (W = 4 mm, ℓ = 8 mm, L = 0.5 mm, Δp = 8 Pa,
+    // μ = 0.1 Pa s) refined by cases::refine_duct_walls: target L* = 0.75 L within 0.75 mm of a wall, a
+    // linear ramp to 1.05 L at 1.5 mm (ours): the particles of the outer band split once (β_s
+    // L = 0.897 L > 0.75 L; children 2^(-1/3) L = 0.397 mm), the core stays coarse. The faces carry the
+    // target spacing (boundary particles L_p = 0.354 mm). With the uniform 0.47 mm face spacing of the
+    // single-resolution case instead, the refined flow lags by 3.8 % at 0.02 s: the mid-length pressure
+    // gradient is 4.4 % low, the extra drop sits in the slabs beside the faces (measured 2026-11-26). To
+    // 0.02 s in CI (2.5 time constants W²/(2π²ν) = 8 ms); 0.05 s in docs/resolution.md and `channel
+    // --duct-multires`.
     cases::duct_config c;
     const double L = c.L;
     c.t_end = 0.02;
     cases::refine_duct_walls(c);
     const auto r = cases::run_duct_impl<cases::duct_pressure_multires_scene>(c);
-    std::printf("3D pressure duct multires: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles "
-                "%ld -> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, ledger %.1e, guarded %ld, |u|max %.4f m/s, %.1f s\n",
-                r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
-                static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.ledger_error,
-                r.guarded, r.u_max, r.wall_seconds);
+    std::printf(
+        "3D pressure duct multires: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, "
+        "particles "
+        "%ld -> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, ledger %.1e, guarded %ld, |u|max %.4f m/s, "
+        "%.1f s\n",
+        r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
+        static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.ledger_error,
+        r.guarded, r.u_max, r.wall_seconds);
     // Refined: every particle of the outer band (the two rings of the 8 × 8 cross-section, 48 per slab of 16)
     // split once, and no inflow yet, so the children are the smallest particles.
     CHECK(r.inflow == 0);
@@ -827,8 +891,8 @@ TEST_SUITE("poiseuille_multires") {
     // Volume: V(t) − V(0) = V_in − V_out through every split and boundary event (splits halve exactly).
     CHECK(r.ledger_error <= 1e-12);
     CHECK(r.guarded == 0);
-    // The issue's 3D tolerance against the start-up series (the pipe's 3 %); measured 0.73 % (single resolution
-    // with the uniform faces: 1.59 % at Δt = 1.58e-4 s, the refined run's is 1.25e-4 s).
+    // The issue's 3D tolerance against the start-up series (the pipe's 3 %); measured 0.73 % (single
+    // resolution with the uniform faces: 1.59 % at Δt = 1.58e-4 s, the refined run's is 1.25e-4 s).
     CHECK(r.max_error <= 0.03);
   }
 }
@@ -854,15 +918,16 @@ void check_same_counters(const scheme::lsmps_counters& a, const scheme::lsmps_co
   for (long scheme::lsmps_counters::*f : scheme::lsmps_counter_fields) CHECK(a.*f == b.*f);
   CHECK(std::bit_cast<std::uint64_t>(a.inflow_volume) == std::bit_cast<std::uint64_t>(b.inflow_volume));
   CHECK(std::bit_cast<std::uint64_t>(a.outflow_volume) == std::bit_cast<std::uint64_t>(b.outflow_volume));
-  CHECK(std::bit_cast<std::uint64_t>(a.left_domain_volume) == std::bit_cast<std::uint64_t>(b.left_domain_volume));
+  CHECK(std::bit_cast<std::uint64_t>(a.left_domain_volume) ==
+        std::bit_cast<std::uint64_t>(b.left_domain_volume));
 }
 }  // namespace
 
 TEST_SUITE("restart") {
   TEST_CASE("restart: LSMPS multi-resolution channel, 60 steps + save + 60 equals load + 60 bitwise") {
     // The scene has everything a checkpoint must carry: split/merge (ledger totals, volumes), pressure faces
-    // (inflow/outflow counters and volumes, new ids) and walls (copies are ghosts: not saved, made anew). Step 60
-    // is not a multiple of reorder_every (25): the list is built from the state at every step start.
+    // (inflow/outflow counters and volumes, new ids) and walls (copies are ghosts: not saved, made anew).
+    // Step 60 is not a multiple of reorder_every (25): the list is built from the state at every step start.
     mpskit::test::scratch tmp("mpskit_test_channel", "restart");
     const auto c = restart_channel();
     cases::multi_diameter_setup su = cases::make_multi_diameter(c);
@@ -895,8 +960,10 @@ TEST_SUITE("restart") {
     const index_t n = sa.n_real();
     CHECK(same_bits(Eigen::MatrixXd(sa.x().leftCols(n)), Eigen::MatrixXd(sb.x().leftCols(n))));
     CHECK(same_bits(Eigen::MatrixXd(sa.u().leftCols(n)), Eigen::MatrixXd(sb.u().leftCols(n))));
-    CHECK(same_bits(Eigen::VectorXd(sa.get<field::pressure>().head(n)), Eigen::VectorXd(sb.get<field::pressure>().head(n))));
-    CHECK(same_bits(Eigen::VectorXd(sa.get<field::volume>().head(n)), Eigen::VectorXd(sb.get<field::volume>().head(n))));
+    CHECK(same_bits(Eigen::VectorXd(sa.get<field::pressure>().head(n)),
+                    Eigen::VectorXd(sb.get<field::pressure>().head(n))));
+    CHECK(same_bits(Eigen::VectorXd(sa.get<field::volume>().head(n)),
+                    Eigen::VectorXd(sb.get<field::volume>().head(n))));
     CHECK(std::equal(sa.ids().begin(), sa.ids().begin() + n, sb.ids().begin()));
     CHECK(std::equal(sa.flags().begin(), sa.flags().begin() + n, sb.flags().begin()));
     CHECK(sa.next_id() == sb.next_id());
@@ -921,7 +988,8 @@ TEST_SUITE("restart") {
     CHECK(!la.fluxes.empty());
     for (std::size_t f = 0; f < la.fluxes.size(); ++f) {
       CHECK(la.fluxes[f].name == lb.fluxes[f].name);
-      CHECK(std::bit_cast<std::uint64_t>(la.fluxes[f].volume) == std::bit_cast<std::uint64_t>(lb.fluxes[f].volume));
+      CHECK(std::bit_cast<std::uint64_t>(la.fluxes[f].volume) ==
+            std::bit_cast<std::uint64_t>(lb.fluxes[f].volume));
       CHECK(same_bits(la.fluxes[f].momentum, lb.fluxes[f].momentum));
       CHECK(la.fluxes[f].particles == lb.fluxes[f].particles);
     }
@@ -929,9 +997,9 @@ TEST_SUITE("restart") {
 
   TEST_CASE("restart: the channel case stopped and resumed gives the uninterrupted run's numbers bitwise") {
     // cases::run_multi_diameter in two processes' worth of pieces: stopped after its first step (stop_after
-    // 1e-9 wall seconds), written with its running measurements, resumed to the end. Every number of the result
-    // equals the straight run's (window 0.01 s of 0.03 s: the resume starts before the window, so the window's
-    // sums are all made after it).
+    // 1e-9 wall seconds), written with its running measurements, resumed to the end. Every number of the
+    // result equals the straight run's (window 0.01 s of 0.03 s: the resume starts before the window, so the
+    // window's sums are all made after it).
     mpskit::test::scratch tmp("mpskit_test_channel", "resume");
     auto c = restart_channel();
     c.t_end = 0.03;
@@ -979,48 +1047,52 @@ TEST_SUITE("restart") {
     a.step();
     io::save_simulation(tmp / "c.mpscp", a);
     // A stepped target.
-    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", a), doctest::Contains("already stepped"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", a), doctest::Contains("already stepped"),
+                         mpskit::error);
     md_sim fresh(su.params, su.initial, &su.walls, &*su.boundary);
     // The particles alone (no sections).
     io::save_checkpoint(tmp / "plain.mpscp", su.initial);
-    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", fresh), doctest::Contains("no section 'lsmps.time'"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", fresh),
+                         doctest::Contains("no section 'lsmps.time'"), mpskit::error);
     // A classic scheme's checkpoint: other fields.
     {
       simulation<defaults<2>>::state_type classic(4);
       for (index_t i = 0; i < 4; ++i) classic.x().col(i) = vec<2>(0.01 * i, 0.0);
       io::save_checkpoint(tmp / "classic.mpscp", classic);
-      CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "classic.mpscp", fresh), doctest::Contains("classic.mpscp"),
-                           mpskit::error);
+      CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "classic.mpscp", fresh),
+                           doctest::Contains("classic.mpscp"), mpskit::error);
     }
     // Reserved section names in the caller's sections.
     io::checkpoint_sections bad;
     bad.add("lsmps.mine", 1.0);
-    CHECK_THROWS_WITH_AS(io::save_simulation(tmp / "r.mpscp", a, bad), doctest::Contains("reserved"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::save_simulation(tmp / "r.mpscp", a, bad), doctest::Contains("reserved"),
+                         mpskit::error);
     // restore() itself: negative counters, a rung off the ladder, a bad time, ghosts, a non-fluid particle.
     scheme::lsmps_counters k;
     k.splits = -1;
-    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, k, {}, {}, 0), doctest::Contains("counter is negative"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, k, {}, {}, 0),
+                         doctest::Contains("counter is negative"), mpskit::error);
     scheme::time_step_state ts;
     ts.halvings = fresh.time_step().max_rungs() + 1;
-    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, {}, ts, {}, 0), doctest::Contains("out of range"),
-                         mpskit::error);
-    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, -1.0, 1e-3, {}, {}, {}, 0), doctest::Contains("finite and >= 0"),
-                         mpskit::error);
-    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, {}, {}, {}, -3), doctest::Contains("negative count"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, {}, ts, {}, 0),
+                         doctest::Contains("out of range"), mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, -1.0, 1e-3, {}, {}, {}, 0),
+                         doctest::Contains("finite and >= 0"), mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(su.initial, 0.1, 1e-3, {}, {}, {}, -3),
+                         doctest::Contains("negative count"), mpskit::error);
     auto wall = su.initial;
     wall.kinds()[0] = kind::wall;
-    CHECK_THROWS_WITH_AS(fresh.restore(wall, 0.1, 1e-3, {}, {}, {}, 0), doctest::Contains("fluid particles only"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(fresh.restore(wall, 0.1, 1e-3, {}, {}, {}, 0),
+                         doctest::Contains("fluid particles only"), mpskit::error);
     // Nothing above changed `fresh`: it loads the good file.
     CHECK(fresh.time() == 0.0);
     io::load_simulation(tmp / "c.mpscp", fresh);
     CHECK(fresh.time() == a.time());
     CHECK(fresh.counters().steps == 1);
   }
-  TEST_CASE("restart: LSMPS counters section of 41 values, or of 24 to 40 (older files), the missing ones read as 0") {
+  TEST_CASE(
+      "restart: LSMPS counters section of 41 values, or of 24 to 40 (older files), the missing ones read as "
+      "0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());
     md_sim a(su.params, su.initial, &su.walls, &*su.boundary);
@@ -1029,9 +1101,9 @@ TEST_SUITE("restart") {
     io::add_simulation_sections(all, a);
     auto real = a.state();
     real.clear_ghosts();
-    // The file with its counters section replaced by `counters` (every other section as save_simulation writes it,
-    // but the boundary volumes when `volumes` is given, and without the active set's held ids, which files before
-    // 2026-12-05 lack: they load with an empty set).
+    // The file with its counters section replaced by `counters` (every other section as save_simulation
+    // writes it, but the boundary volumes when `volumes` is given, and without the active set's held ids,
+    // which files before 2026-12-05 lack: they load with an empty set).
     const auto write = [&](const std::string& name, const std::vector<std::int64_t>& counters,
                            const std::vector<double>& volumes = {}) {
       io::checkpoint_sections s;
@@ -1066,7 +1138,9 @@ TEST_SUITE("restart") {
     v[38] = 23;  // ppe_cold_restarts
     v[39] = 24;  // ppe_solves
     v[40] = 25;  // ppe_factorisations, the last value
-    const auto head = [&](std::size_t k) { return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k)); };
+    const auto head = [&](std::size_t k) {
+      return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k));
+    };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
     io::load_simulation(write("41.mpscp", v, {0.5, 0.25, 0.125}), b);
     CHECK(b.counters().ppe_cold_restarts == 23);
@@ -1106,7 +1180,8 @@ TEST_SUITE("restart") {
     io::load_simulation(write("37.mpscp", head(37), {0.5, 0.25, 0.125}), b37);
     CHECK(b37.counters().left_domain == 21);
     CHECK(b37.counters().active_set_released == 0);
-    md_sim b36(su.params, su.initial, &su.walls, &*su.boundary);  // before remove_outside: 36 counters, 2 volumes
+    md_sim b36(su.params, su.initial, &su.walls,
+               &*su.boundary);  // before remove_outside: 36 counters, 2 volumes
     io::load_simulation(write("36.mpscp", head(36), {0.5, 0.25}), b36);
     CHECK(b36.counters().shift_coincident == 20);
     CHECK(b36.counters().left_domain == 0);
@@ -1153,7 +1228,8 @@ TEST_SUITE("restart") {
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
                          doctest::Contains("'lsmps.counters' holds 23 values, expected 41"), mpskit::error);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("4v.mpscp", v, {0.5, 0.25, 0.125, 1.0}), e),
-                         doctest::Contains("'lsmps.boundary_volumes' holds 4 values, expected 3"), mpskit::error);
+                         doctest::Contains("'lsmps.boundary_volumes' holds 4 values, expected 3"),
+                         mpskit::error);
     v.push_back(0);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("42.mpscp", v), e),
                          doctest::Contains("'lsmps.counters' holds 42 values, expected 41"), mpskit::error);

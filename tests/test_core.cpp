@@ -28,7 +28,8 @@ static_assert(FieldTag<field::pressure> && !FieldTag<int>);
 using bare_state = particle_state<2>;
 using rich_state = particle_state<2, field_list<field::pressure, field::partner>>;
 static_assert(!bare_state::has<field::volume> && !bare_state::has<field::pressure>);
-static_assert(rich_state::has<field::pressure> && rich_state::has<field::partner> && rich_state::has<field::id>);
+static_assert(rich_state::has<field::pressure> && rich_state::has<field::partner> &&
+              rich_state::has<field::id>);
 static_assert(std::same_as<field_storage_t<field::pressure, 3>, Eigen::VectorXd>);
 static_assert(std::same_as<field_storage_t<field::velocity, 3>, points<3>>);
 static_assert(std::same_as<field_storage_t<field::partner, 3>, std::vector<index_t>>);
@@ -84,7 +85,8 @@ TEST_SUITE("core") {
     const index_t n = 200;
     rich_state s = make_state(n);
     std::map<particle_id, particle_id> partner_of;
-    for (index_t i = 0; i < n; ++i) partner_of[static_cast<particle_id>(i)] = static_cast<particle_id>((i + 3) % n);
+    for (index_t i = 0; i < n; ++i)
+      partner_of[static_cast<particle_id>(i)] = static_cast<particle_id>((i + 3) % n);
     check_consistent(s, partner_of);
 
     std::mt19937_64 rng(seed_from_env());
@@ -101,7 +103,8 @@ TEST_SUITE("core") {
     // Remove every particle whose id is a multiple of 5: references to them become npos and are counted.
     std::vector<char> mask(static_cast<std::size_t>(n));
     index_t lost = 0;
-    for (index_t i = 0; i < n; ++i) mask[static_cast<std::size_t>(i)] = s.ids()[static_cast<std::size_t>(i)] % 5 == 0;
+    for (index_t i = 0; i < n; ++i)
+      mask[static_cast<std::size_t>(i)] = s.ids()[static_cast<std::size_t>(i)] % 5 == 0;
     for (auto& [id, pid] : partner_of)
       if (id % 5 != 0 && pid % 5 == 0) ++lost;
     std::erase_if(partner_of, [](const auto& kv) { return kv.first % 5 == 0 || kv.second % 5 == 0; });
@@ -166,7 +169,8 @@ TEST_SUITE("core") {
     std::vector<std::pair<index_t, index_t>> edges;
     std::uniform_int_distribution<index_t> node(0, n - 1);
     for (int k = 0; k < 200; ++k) edges.emplace_back(node(rng), node(rng));
-    std::vector<index_t> smallest(static_cast<std::size_t>(n), -1);  // flood fill: the lowest index per component
+    std::vector<index_t> smallest(static_cast<std::size_t>(n),
+                                  -1);  // flood fill: the lowest index per component
     for (index_t s = 0; s < n; ++s) {
       if (smallest[static_cast<std::size_t>(s)] >= 0) continue;
       std::vector<index_t> todo{s};
@@ -223,7 +227,8 @@ double step_to(scheme::time_step_controller& c, double limit, long step = 0) {
 }  // namespace
 
 TEST_SUITE("core") {
-  TEST_CASE("scheme: the Δt ladder takes the largest rung under the limit and climbs one rung with hysteresis") {
+  TEST_CASE(
+      "scheme: the Δt ladder takes the largest rung under the limit and climbs one rung with hysteresis") {
     for (const double r : {2.0, std::pow(2.0, 0.25), 1.1}) {
       CAPTURE(r);
       scheme::time_step_params p;
@@ -236,7 +241,8 @@ TEST_SUITE("core") {
       std::uniform_real_distribution<double> e(-12.0, 0.0);
       double lim = p.dt_max;
       for (int n = 0; n < 200; ++n) {
-        lim = std::min(lim, p.dt_max * std::exp2(e(rng)) * 4.0);  // non-increasing: the controller never climbs
+        lim =
+            std::min(lim, p.dt_max * std::exp2(e(rng)) * 4.0);  // non-increasing: the controller never climbs
         const double dt = step_to(c, lim);
         const int k = c.state().halvings;
         CHECK(dt <= lim);
@@ -244,8 +250,8 @@ TEST_SUITE("core") {
         CHECK(dt == doctest::Approx(p.dt_max * std::pow(r, -k)).epsilon(1e-14));
         if (r == 2.0) CHECK(dt == std::ldexp(p.dt_max, -k));  // bitwise the Δt_max / 2^k of before the ratio
       }
-      // Up: under a constant large limit Δt climbs one rung per hold_steps + 1 calls while r Δt hysteresis ≤ limit,
-      // and stops at the first rung above limit / (r hysteresis).
+      // Up: under a constant large limit Δt climbs one rung per hold_steps + 1 calls while r Δt
+      // hysteresis ≤ limit, and stops at the first rung above limit / (r hysteresis).
       const int k0 = c.state().halvings;
       const double big = c.dt() * std::pow(r, 4) * p.hysteresis * 0.999;  // three rungs up, not four
       REQUIRE(big < p.dt_max);
@@ -267,12 +273,14 @@ TEST_SUITE("core") {
     }
   }
 
-  TEST_CASE("scheme: the Δt limit takes the Courant pair and the viscous spacing apart (eq. 64 per particle)") {
+  TEST_CASE(
+      "scheme: the Δt limit takes the Courant pair and the viscous spacing apart (eq. 64 per particle)") {
     scheme::time_step_params p;  // α_C = α_ν = 0.1, dt_max = 1e-3 s
     const scheme::time_step_controller c(p);
     // Courant of the limiting particle (L 2 mm, 1 m/s): 2e-4 s; viscous at the smallest L (1 mm): 0.1 L²/ν.
     CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-6) == doctest::Approx(2e-4).epsilon(1e-15));
-    CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-3) == doctest::Approx(1e-4).epsilon(1e-15));  // not 0.1 (2 mm)²/ν = 4e-4
+    CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-3) ==
+          doctest::Approx(1e-4).epsilon(1e-15));  // not 0.1 (2 mm)²/ν = 4e-4
     CHECK(c.limit(1e-3, 1.0, 1e-6) == c.limit(1e-3, 1.0, 1e-3, 1e-6));            // one spacing: the old form
     CHECK(c.limit(2e-3, 0.0, 1e-3, 0.0) == p.dt_max);                             // at rest, inviscid
   }
@@ -284,7 +292,8 @@ TEST_SUITE("core") {
       p.ratio = r;
       p.max_halvings = 20;
       scheme::time_step_controller above(p), below(p);
-      // The deepest rung is the last one at or above dt_max / 2^20 (what a checkpoint's rung is checked against).
+      // The deepest rung is the last one at or above dt_max / 2^20 (what a checkpoint's rung is checked
+      // against).
       CHECK(std::pow(r, -above.max_rungs()) <= std::exp2(-20.0) * (1.0 + 1e-12));
       CHECK(std::pow(r, -(above.max_rungs() - 1)) > std::exp2(-20.0));
       if (r == 2.0) CHECK(above.max_rungs() == 20);
@@ -437,7 +446,8 @@ TEST_SUITE("bad_input") {
       CAPTURE(r);
       scheme::time_step_params p;
       p.ratio = r;
-      CHECK_THROWS_WITH_AS(scheme::time_step_controller{p}, doctest::Contains("time_step_params.ratio"), mpskit::error);
+      CHECK_THROWS_WITH_AS(scheme::time_step_controller{p}, doctest::Contains("time_step_params.ratio"),
+                           mpskit::error);
     }
   }
 

@@ -1,7 +1,8 @@
 // io/: base64 and checksum vectors, .vtu/.pvd round trips through the project's reader (both encodings,
-// 2D and 3D, every field shape) and through meshio and VTK's Python reader when present, malformed files refused, CSV series,
-// progress and summary formatting, the largest connected body (suite "io"); checkpoint round trip, bitwise restart and refusal of
-// truncated, corrupted, wrong-version and mismatched checkpoints (suite "checkpoint").
+// 2D and 3D, every field shape) and through meshio and VTK's Python reader when present, malformed files
+// refused, CSV series, progress and summary formatting, the largest connected body (suite "io"); checkpoint
+// round trip, bitwise restart and refusal of truncated, corrupted, wrong-version and mismatched checkpoints
+// (suite "checkpoint").
 #include <doctest/doctest.h>
 
 #include "support/support.hpp"
@@ -90,7 +91,8 @@ state_t<D> make_state(index_t n, index_t g, std::mt19937_64& rng) {
   const index_t m = s.size();
   std::uniform_int_distribution<int> any_kind(0, 4);
   std::uniform_int_distribution<std::uint32_t> bits(0, 63);
-  std::uniform_int_distribution<index_t> any_index(-1, m - 1), any_real(0, std::max<index_t>(s.n_real() - 1, 0));
+  std::uniform_int_distribution<index_t> any_index(-1, m - 1),
+      any_real(0, std::max<index_t>(s.n_real() - 1, 0));
   std::uniform_int_distribution<std::int32_t> any_level(-100000, 100000);
   std::uniform_int_distribution<std::uint32_t> any_tag(0, 65535);
   for (index_t i = 0; i < m; ++i) {
@@ -117,7 +119,8 @@ template <class S>
 bool same_bytes(const S& a, const S& b) {
   if (a.size() != b.size()) return false;
   using V = std::remove_cvref_t<decltype(*a.data())>;
-  return a.size() == 0 || std::memcmp(a.data(), b.data(), static_cast<std::size_t>(a.size()) * sizeof(V)) == 0;
+  return a.size() == 0 ||
+         std::memcmp(a.data(), b.data(), static_cast<std::size_t>(a.size()) * sizeof(V)) == 0;
 }
 
 /// Every field, the counts and the next id equal bitwise; names the first field that differs.
@@ -245,7 +248,8 @@ constexpr const char* vtk_dump =
     "pd = g.GetPointData()\n"
     "for k in range(pd.GetNumberOfArrays()): put(pd.GetArray(k).GetName(), vtk_to_numpy(pd.GetArray(k)))\n"
     "n = g.GetNumberOfCells()\n"
-    "out.write('CELLS %s %d\\n' % ('vertex' if all(g.GetCellType(i) == 1 for i in range(n)) else 'other', n))\n"
+    "out.write('CELLS %s %d\\n' % ('vertex' if all(g.GetCellType(i) == 1 for i in range(n)) else 'other', "
+    "n))\n"
     "out.write('TIME %s\\n' % repr(g.GetFieldData().GetArray('TimeValue').GetValue(0)))\n";
 
 /// Runs an external reader on `vtu` and checks every array it reports against our reader, bitwise.
@@ -351,9 +355,13 @@ void toy_step(State& s, toy_controller& c, double& t, std::int64_t& step) {
 TEST_SUITE("io") {
   TEST_CASE("io: base64 and FNV-1a match their published test vectors") {
     // RFC 4648 §10 test vectors.
-    const std::pair<std::string, std::string> b64[] = {{"", ""},         {"f", "Zg=="},         {"fo", "Zm8="},
-                                                        {"foo", "Zm9v"}, {"foob", "Zm9vYg=="},  {"fooba", "Zm9vYmE="},
-                                                        {"foobar", "Zm9vYmFy"}};
+    const std::pair<std::string, std::string> b64[] = {{"", ""},
+                                                       {"f", "Zg=="},
+                                                       {"fo", "Zm8="},
+                                                       {"foo", "Zm9v"},
+                                                       {"foob", "Zm9vYg=="},
+                                                       {"fooba", "Zm9vYmE="},
+                                                       {"foobar", "Zm9vYmFy"}};
     for (const auto& [plain, enc] : b64) {
       std::string e, d;
       io::detail::base64_encode(plain, e);
@@ -406,7 +414,8 @@ TEST_SUITE("io") {
           REQUIRE(conn.size() == static_cast<std::size_t>(f.n_points));
           bool ok = off.size() == conn.size() && types.size() == conn.size();
           for (std::size_t i = 0; ok && i < conn.size(); ++i)
-            ok = conn[i] == static_cast<std::int64_t>(i) && off[i] == static_cast<std::int64_t>(i + 1) && types[i] == 1;
+            ok = conn[i] == static_cast<std::int64_t>(i) && off[i] == static_cast<std::int64_t>(i + 1) &&
+                 types[i] == 1;
           CHECK(ok);
           // Restoring a state from the output gives back the same particles bitwise.
           if (!in_names) {
@@ -496,8 +505,10 @@ TEST_SUITE("io") {
       CHECK(f.time == times[k]);
       CHECK(f.step == static_cast<index_t>(k));
     }
-    check_refused([&] { io::pvd_series(tmp / "x.pvd", e).add(0.2, tmp / "y.vtu"); }, {"x.pvd", "must not decrease"});
-    check_refused([&] { io::pvd_series(tmp / "x.pvd").add(std::nan(""), tmp / "y.vtu"); }, {"x.pvd", "not finite"});
+    check_refused([&] { io::pvd_series(tmp / "x.pvd", e).add(0.2, tmp / "y.vtu"); },
+                  {"x.pvd", "must not decrease"});
+    check_refused([&] { io::pvd_series(tmp / "x.pvd").add(std::nan(""), tmp / "y.vtu"); },
+                  {"x.pvd", "not finite"});
     // Restart at t = 0.25: later entries dropped, numbering continues.
     io::vtk_series resumed(tmp / "out" / "case", {}, io::read_pvd(pvd, 0.25));
     CHECK(resumed.files_written() == 4);
@@ -508,7 +519,8 @@ TEST_SUITE("io") {
     check_refused([&] { io::read_pvd(tmp / "out" / "case_000000.vtu"); }, {"case_000000.vtu", "Collection"});
   }
 
-  TEST_CASE_TEMPLATE("io: meshio and VTK's own reader read the .vtu with the same values", Dim, dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE("io: meshio and VTK's own reader read the .vtu with the same values", Dim, dim<2>,
+                     dim<3>) {
     constexpr int D = Dim::value;
     std::mt19937_64 rng(test_seed() + 10 + D);
     const state_t<D> s = make_state<D>(23, 4, rng);
@@ -566,14 +578,18 @@ TEST_SUITE("io") {
       }
     }
     CHECK(!std::getline(in, line));
-    check_refused([&] { io::csv_writer(p, {{"time", "s"}}, io::csv_mode::append); }, {"probes.csv", "header"});
+    check_refused(
+        [&] {
+          io::csv_writer(p, {{"time", "s"}}, io::csv_mode::append);
+        },
+        {"probes.csv", "header"});
     check_refused([&] { io::csv_writer(tmp / "x.csv", {{"a,b", "s"}}); }, {"x.csv", "column 0"});
     check_refused([&] { io::csv_writer(tmp / "x.csv", {}); }, {"x.csv", "no columns"});
     check_refused([&] { io::csv_writer(tmp / "no" / "x.csv", {{"t", "s"}}); }, {"x.csv", "cannot open"});
   }
 
-  TEST_CASE_TEMPLATE("io: LSMPS type B probes are exact for linear fields, kernel probes for constants", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("io: LSMPS type B probes are exact for linear fields, kernel probes for constants", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     std::mt19937_64 rng(test_seed() + 400 + D);
     std::uniform_real_distribution<double> U(-1.0, 1.0);
@@ -584,7 +600,8 @@ TEST_SUITE("io") {
     particle_state<D, field_list<field::pressure>> s(n);
     for (index_t i = 0; i < n; ++i) {
       index_t r = i;
-      for (int a = 0; a < D; ++a, r /= m) s.x()(a, i) = (static_cast<double>(r % m) + 0.5 + 0.3 * U(rng)) * l0;
+      for (int a = 0; a < D; ++a, r /= m)
+        s.x()(a, i) = (static_cast<double>(r % m) + 0.5 + 0.3 * U(rng)) * l0;
     }
     // Linear fields p = p0 + b·x, u = u0 + A x with random coefficients.
     const double p0 = 1000.0 * U(rng);
@@ -625,13 +642,15 @@ TEST_SUITE("io") {
       // (re = 3.1 l0, ~30 neighbours in 2D), so the error is a few ulps of the largest term.
       CHECK(std::abs(row[2 + k * (1 + D)] - (p0 + b.dot(q))) < 1e-9);
       const vec<D> uq = u0 + A * q;
-      for (int a = 0; a < D; ++a) CHECK(std::abs(row[3 + k * (1 + D) + static_cast<std::size_t>(a)] - uq[a]) < 1e-12);
+      for (int a = 0; a < D; ++a)
+        CHECK(std::abs(row[3 + k * (1 + D) + static_cast<std::size_t>(a)] - uq[a]) < 1e-12);
     }
     for (std::size_t c = 2 + (probes.size() - 1) * (1 + D); c < row.size(); ++c) CHECK(std::isnan(row[c]));
     // Kernel interpolation: exact for a constant field (weights sum to 1), not for the linear one.
     s.template get<field::pressure>().setConstant(p0);
     ker.sample(s, 0.0, 0);
-    for (std::size_t k = 0; k + 1 < probes.size(); ++k) CHECK(ker.last_row()[2 + k * (1 + D)] == doctest::Approx(p0).epsilon(1e-14));
+    for (std::size_t k = 0; k + 1 < probes.size(); ++k)
+      CHECK(ker.last_row()[2 + k * (1 + D)] == doctest::Approx(p0).epsilon(1e-14));
     std::ifstream in(tmp / "lin.csv");
     std::string comment, header;
     std::getline(in, comment);
@@ -663,7 +682,8 @@ TEST_SUITE("io") {
     CHECK(r.volume == doctest::Approx(V).epsilon(1e-13));
     CHECK(r.mass == doctest::Approx(M).epsilon(1e-13));
     CHECK(r.kinetic_energy == doctest::Approx(0.5 * M * 5.0).epsilon(1e-13));
-    // Σ y = m Σ_j (j + 1/2) l0 = m · m²/2 · l0 → E_p = ρ l0² g · m³ l0 / 2 = M g (m l0)/2 (centre of mass height).
+    // Σ y = m Σ_j (j + 1/2) l0 = m · m²/2 · l0 → E_p = ρ l0² g · m³ l0 / 2 = M g (m l0)/2 (centre of mass
+    // height).
     CHECK(r.potential_energy == doctest::Approx(M * g * 0.5 * m * l0).epsilon(1e-13));
     CHECK(io::front_position(s, 0) == doctest::Approx((m - 0.5) * l0).epsilon(1e-15));
     CHECK(io::front_position(s, 0, 0.5 * l0) == doctest::Approx(m * l0).epsilon(1e-15));
@@ -678,12 +698,15 @@ TEST_SUITE("io") {
     std::ifstream in(tmp / "i.csv");
     std::string header;
     std::getline(in, header);
-    CHECK(header == "time [s],particles [1],volume [m^2],mass [kg/m],kinetic_energy [J/m],potential_energy [J/m]");
+    CHECK(header ==
+          "time [s],particles [1],volume [m^2],mass [kg/m],kinetic_energy [J/m],potential_energy [J/m]");
   }
 
-  TEST_CASE("io: largest_body keeps the bulk and its chains, leaves detached clusters out, and matches brute force") {
-    // A 6 × 6 block of unit diameters at integer points, a chain running right from it at spacing 1.4 (< link 1.5:
-    // linked), and a 2 × 2 cluster beyond the chain's tip at 1.6 (> 1.5: detached, as spray is).
+  TEST_CASE(
+      "io: largest_body keeps the bulk and its chains, leaves detached clusters out, and matches brute "
+      "force") {
+    // A 6 × 6 block of unit diameters at integer points, a chain running right from it at spacing 1.4 (< link
+    // 1.5: linked), and a 2 × 2 cluster beyond the chain's tip at 1.6 (> 1.5: detached, as spray is).
     std::vector<vec<2>> p;
     for (int j = 0; j < 6; ++j)
       for (int i = 0; i < 6; ++i) p.emplace_back(i, j);
@@ -748,15 +771,17 @@ TEST_SUITE("io") {
     bad[3] = 0.0;
     check_refused([&] { io::largest_body(x, bad, n, all); }, {"particle 3"});
     points<2> far = x;
-    far(1, 30) = 1e19 * 1.5 * d.maxCoeff();  // the block's top-left corner 1e19 cells up: int64_t would overflow
+    far(1, 30) =
+        1e19 * 1.5 * d.maxCoeff();  // the block's top-left corner 1e19 cells up: int64_t would overflow
     check_refused([&] { io::largest_body(far, d, n, all); }, {"particle 30", "along axis 1", "4e18 cells"});
-    far(1, 30) = 1e17 * 1.5 * d.maxCoeff();  // far, but representable: a body of its own, the block stays the body
+    far(1, 30) =
+        1e17 * 1.5 * d.maxCoeff();  // far, but representable: a body of its own, the block stays the body
     m = io::largest_body(far, d, n, all);
     CHECK(m[30] == 0);
     CHECK(std::count(m.begin(), m.end(), 1) == 35 + chain);
 
-    // Random clouds in 2D and 3D with diameters in [0.5, 1.5]: the grid's components equal those of an all-pairs
-    // search (a graph search over every pair), so no link across cells is missed.
+    // Random clouds in 2D and 3D with diameters in [0.5, 1.5]: the grid's components equal those of an
+    // all-pairs search (a graph search over every pair), so no link across cells is missed.
     std::mt19937_64 rng(test_seed());
     // With periodic axes (search::domain) the links use the minimum image, and the all-pairs search does too.
     // The cloud fills the box [−box/2, box/2) (per axis).
@@ -785,8 +810,9 @@ TEST_SUITE("io") {
           todo.pop_back();
           vol[static_cast<std::size_t>(c)] += std::pow(dz[i], D);
           for (int j = 0; j < count; ++j)
-            if (vec<D> r = z.col(i) - z.col(j); counted(j) && comp[static_cast<std::size_t>(j)] < 0 &&
-                                                (dom.minimum_image(r), r.norm() < 1.5 * 0.5 * (dz[i] + dz[j]))) {
+            if (vec<D> r = z.col(i) - z.col(j);
+                counted(j) && comp[static_cast<std::size_t>(j)] < 0 &&
+                (dom.minimum_image(r), r.norm() < 1.5 * 0.5 * (dz[i] + dz[j]))) {
               comp[static_cast<std::size_t>(j)] = c;
               todo.push_back(j);
             }
@@ -811,9 +837,10 @@ TEST_SUITE("io") {
     const vec<3> box3 = vec<3>::Constant(10.0);
     compare(in2{}, 400, box2, search::domain<2>{});
     compare(in3{}, 400, box3, search::domain<3>{});
-    // The box as the period box: periodic in x (2D), in x and z (3D), and in y of a 30 × 4 strip, whose period
-    // holds a single cell of 1.5 · 1.5 (so the neighbour cells across it repeat).
-    const auto periodic_box = []<std::size_t D>(const std::array<bool, D>& axes, const vec<static_cast<int>(D)>& box) {
+    // The box as the period box: periodic in x (2D), in x and z (3D), and in y of a 30 × 4 strip, whose
+    // period holds a single cell of 1.5 · 1.5 (so the neighbour cells across it repeat).
+    const auto periodic_box = []<std::size_t D>(const std::array<bool, D>& axes,
+                                                const vec<static_cast<int>(D)>& box) {
       search::domain<static_cast<int>(D)> dom;
       dom.periodic = axes;
       dom.lo = -0.5 * box;
@@ -826,10 +853,10 @@ TEST_SUITE("io") {
   }
 
   TEST_CASE("io: largest_body links across a periodic side: a row cut by the box's side is one body") {
-    // Unit diameters at x = 0, 1, ..., 9 (y = 0) in the period box [−0.5, 9.5) along x: a closed ring once 9 links
-    // to 0 through its image (distance 1 < 1.5). Particles 4 and 5 not counted: without the periodic axis 0–3 and
-    // 6–9 are two bodies of 4 and a row of 7 at y = 50 (x = 20 ... 26, outside the box: wrapped for the cells, not
-    // moved) is the largest; with it 0–3 and 6–9 are one body of 8.
+    // Unit diameters at x = 0, 1, ..., 9 (y = 0) in the period box [−0.5, 9.5) along x: a closed ring once 9
+    // links to 0 through its image (distance 1 < 1.5). Particles 4 and 5 not counted: without the periodic
+    // axis 0–3 and 6–9 are two bodies of 4 and a row of 7 at y = 50 (x = 20 ... 26, outside the box: wrapped
+    // for the cells, not moved) is the largest; with it 0–3 and 6–9 are one body of 8.
     points<2> x(2, 17);
     for (int i = 0; i < 10; ++i) x.col(i) << i, 0.0;
     for (int i = 0; i < 7; ++i) x.col(10 + i) << 20.0 + i, 50.0;
@@ -847,10 +874,10 @@ TEST_SUITE("io") {
     CHECK(m[0] == 1);
     CHECK(m[9] == 1);
     CHECK(m[10] == 0);
-    // Pairs linked only through the side, one pair counted at a time (linked: a body of 2; not: 1). Period 3.01 h
-    // (h = link · d = 1.5): three cells of 1.505, so a grid of four cells of h (cells 0 and 2 not neighbours) would
-    // miss the first pair. The others: a particle exactly at hi (wrapped to lo), one a rounding below lo, and a
-    // pair several periods apart.
+    // Pairs linked only through the side, one pair counted at a time (linked: a body of 2; not: 1). Period
+    // 3.01 h (h = link · d = 1.5): three cells of 1.505, so a grid of four cells of h (cells 0 and 2 not
+    // neighbours) would miss the first pair. The others: a particle exactly at hi (wrapped to lo), one a
+    // rounding below lo, and a pair several periods apart.
     search::domain<2> thin;
     thin.periodic = {true, false};
     thin.lo = vec<2>(0.0, 0.0);
@@ -905,9 +932,11 @@ TEST_SUITE("io") {
     std::getline(lines, third);
     CHECK(first == "t = 0 s / 1 s, step 0, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA --");
     // ETA from the first report: 1 s of wall for 0.1 s simulated, 0.9 s to go → 9 s.
-    CHECK(second == "t = 0.1 s / 1 s, step 20, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA 9.0s");
+    CHECK(second ==
+          "t = 0.1 s / 1 s, step 20, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA 9.0s");
     // 10 s for 0.2 s, 0.8 s to go → 40 s.
-    CHECK(third == "t = 0.2 s / 1 s, step 40, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA 40.0s");
+    CHECK(third ==
+          "t = 0.2 s / 1 s, step 40, dt = 1.000e-03 s, PPE iterations 42, particles 1000, ETA 40.0s");
     CHECK(io::format_duration(3723.0) == "1h02m03s");
     CHECK(io::format_duration(125.0) == "2m05s");
 
@@ -958,8 +987,8 @@ TEST_SUITE("io") {
 }
 
 TEST_SUITE("checkpoint") {
-  TEST_CASE_TEMPLATE("checkpoint: round trip restores every field, the layout and the sections bitwise", Dim, dim<2>,
-                     dim<3>) {
+  TEST_CASE_TEMPLATE("checkpoint: round trip restores every field, the layout and the sections bitwise", Dim,
+                     dim<2>, dim<3>) {
     constexpr int D = Dim::value;
     std::mt19937_64 rng(test_seed() + 100 + D);
     const state_t<D> s = make_state<D>(73, 9, rng);
@@ -985,7 +1014,8 @@ TEST_SUITE("checkpoint") {
     CHECK(in.get_int64("step") == 1234);
     const std::vector<double> ctl = in.get_doubles("controller"), want = {1e-3, -0.0, 5e-324};
     CHECK(std::memcmp(ctl.data(), want.data(), sizeof(double) * 3) == 0);
-    CHECK(in.get_int64s("counters") == std::vector<std::int64_t>{1, -2, std::numeric_limits<std::int64_t>::min()});
+    CHECK(in.get_int64s("counters") ==
+          std::vector<std::int64_t>{1, -2, std::numeric_limits<std::int64_t>::min()});
     CHECK(in.get_bytes("opaque") == std::string("\0\1\2binary", 9));
     // Saving the restored state gives the same file, byte for byte.
     io::save_checkpoint(tmp / "again.ckpt", r, in);
@@ -1088,7 +1118,8 @@ TEST_SUITE("checkpoint") {
     check_refused([&] { io::load_checkpoint(good, r3, in); }, {"good.ckpt", "2D scene", "3D state"});
     particle_state<2, field_list<field::pressure>> fewer;
     check_refused([&] { io::load_checkpoint(good, fewer, in); }, {"good.ckpt", "fields"});
-    particle_state<2, field_list<field::pressure, field::volume, field::normal, field::partner, tag16, level>> swapped;
+    particle_state<2, field_list<field::pressure, field::volume, field::normal, field::partner, tag16, level>>
+        swapped;
     check_refused([&] { io::load_checkpoint(good, swapped, in); }, {"good.ckpt", "'level'", "'tag16'"});
     // A refused load leaves the target untouched.
     CHECK(r.size() == 0);

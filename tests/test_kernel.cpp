@@ -81,7 +81,8 @@ TEST_SUITE("kernel") {
     const double n0 = 4.0 * (wq(1.0) + wq(std::sqrt(2.0)) + wq(2.0));
     const double lam = 4.0 * (wq(1.0) * 1.0 + wq(std::sqrt(2.0)) * 2.0 + wq(2.0) * 4.0) / n0;
     CHECK(kernel::reference_lattice<kernel::quadratic, 2>(2.1).n0 == doctest::Approx(n0).epsilon(1e-13));
-    CHECK(kernel::reference_lattice<kernel::quadratic, 2>(2.1).lambda0_over_l02 == doctest::Approx(lam).epsilon(1e-13));
+    CHECK(kernel::reference_lattice<kernel::quadratic, 2>(2.1).lambda0_over_l02 ==
+          doctest::Approx(lam).epsilon(1e-13));
     // Neighbour counts on the square lattice (bmmr.md §2.2: 12 at 2.1 l0, 28 at 3.1 l0).
     CHECK(kernel::reference_lattice<kernel::quadratic, 2>(2.1).neighbours == 12);
     CHECK(kernel::reference_lattice<kernel::quadratic, 2>(3.1).neighbours == 28);

@@ -41,11 +41,13 @@ TEST_SUITE("taylor_green") {
     const auto r25 = cases::run_taylor_green(c25);
     const auto r50 = cases::run_taylor_green(c50);
     for (const auto* r : {&r25, &r50})
-      std::printf("taylor_green N=%lld: steps %ld, E/E0-1 %.3e (max %.3e), momentum %.2e, p error max %.3f mean %.3f, "
-                  "u error %.3e, pinned %ld, iterations %ld, %.1f s\n",
-                  static_cast<long long>(std::llround(std::sqrt(double(r->particles)))), r->steps, r->energy_drift,
-                  r->max_energy_drift, r->momentum_ratio, r->pressure_error, r->pressure_error_mean, r->velocity_error,
-                  r->pinned, r->ppe_iterations, r->wall_seconds);
+      std::printf(
+          "taylor_green N=%lld: steps %ld, E/E0-1 %.3e (max %.3e), momentum %.2e, p error max %.3f mean "
+          "%.3f, "
+          "u error %.3e, pinned %ld, iterations %ld, %.1f s\n",
+          static_cast<long long>(std::llround(std::sqrt(double(r->particles)))), r->steps, r->energy_drift,
+          r->max_energy_drift, r->momentum_ratio, r->pressure_error, r->pressure_error_mean,
+          r->velocity_error, r->pinned, r->ppe_iterations, r->wall_seconds);
     // Energy at t = 0.5 s: measured −3.26e-2 (N = 25) and −5.79e-3 (N = 50), a 5.6× reduction. The tolerance
     // 1e-2 at N = 50 leaves 1.7× room for platform/rounding differences; the issue asks ≥ 1.5× shrink.
     CHECK(std::abs(r50.energy_drift) <= 1e-2);
@@ -108,10 +110,12 @@ void check_first_step_hydrostatic(double angle_deg, double L) {
     false_surface += surf && !top;
     top_unflagged += top && !surf;
   }
-  std::printf("hydrostatic_polygon %dD %.0f deg L = %.3f: %lld fluid, %lld copies, max |p - rho g d|/(rho g H) = %.2e, "
-              "false surface %ld, top row unflagged %ld\n",
-              D, angle_deg, L, static_cast<long long>(n), static_cast<long long>(st.n_ghost()), err, false_surface,
-              top_unflagged);
+  std::printf(
+      "hydrostatic_polygon %dD %.0f deg L = %.3f: %lld fluid, %lld copies, max |p - rho g d|/(rho g H) = "
+      "%.2e, "
+      "false surface %ld, top row unflagged %ld\n",
+      D, angle_deg, L, static_cast<long long>(n), static_cast<long long>(st.n_ghost()), err, false_surface,
+      top_unflagged);
   CHECK(st.n_ghost() > 0);
   // Measured ≤ 1.6e-9 (2D and 3D); the solver stops at a relative residual of 1e-8.
   CHECK(err <= 1e-7);
@@ -145,17 +149,19 @@ cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, doubl
   cfg.params.shift.alpha_g = alpha_g;
   cfg.params.shift_second_wall = shift_second_wall;
   const auto r = cases::run_hydrostatic_polygon<lsmps_defaults<D>>(cfg);
-  std::printf("hydrostatic_polygon long %dD %.0f deg L = %.4f alpha_g = %g: %lld fluid, %ld steps, max bin error "
-              "%.4f, rms %.2e, max %.2e sqrt(gH), surface %.4f (initial %.4f), guarded %ld, min signed distance %.2e L, "
-              "%.1f s\n",
-              D, angle_deg, L, alpha_g, static_cast<long long>(r.fluid), r.steps,
-              r.max_bin_error, r.rms_speed, r.max_speed, r.surface_height, r.surface_height_initial, r.guarded,
-              r.min_signed_distance / L, r.wall_seconds);
+  std::printf(
+      "hydrostatic_polygon long %dD %.0f deg L = %.4f alpha_g = %g: %lld fluid, %ld steps, max bin error "
+      "%.4f, rms %.2e, max %.2e sqrt(gH), surface %.4f (initial %.4f), guarded %ld, min signed distance %.2e "
+      "L, "
+      "%.1f s\n",
+      D, angle_deg, L, alpha_g, static_cast<long long>(r.fluid), r.steps, r.max_bin_error, r.rms_speed,
+      r.max_speed, r.surface_height, r.surface_height_initial, r.guarded, r.min_signed_distance / L,
+      r.wall_seconds);
   return r;
 }
 
-/// A 2D box 0.2 m wide and 0.4 m tall with vertical walls (floor from x = 0 to 0.2 m), L = 10 mm, 50 mm of water:
-/// room for particles placed far from the water and the floor.
+/// A 2D box 0.2 m wide and 0.4 m tall with vertical walls (floor from x = 0 to 0.2 m), L = 10 mm, 50 mm of
+/// water: room for particles placed far from the water and the floor.
 cases::polygon_tank_config tall_box_config() {
   cases::polygon_tank_config tc;
   tc.angle_deg = 90.0;
@@ -170,14 +176,15 @@ cases::polygon_tank_config tall_box_config() {
 
 namespace {
 
-/// Shifting beside a concave kink whose faces differ by less than the copies' merge angle (the paper channel's
-/// upper taper corner, 18.4°): a vessel (0, 0.15) → (0, 0) → (x_k, 0) → (0.12, (0.12 − x_k) tan θ) → (0.12, 0.15),
-/// L = 5 mm, water to 50 mm, positions jittered by up to 0.15 L (seeded) so the shifting acts, two particles at
-/// the kink placed (below). `closed`: the vessel has a lid at 50 mm, full of water, and the scene no free surface
-/// (as the channels: no normals are computed, n = 0, so eq. 99 removes the copy's wall normal only); open: the
-/// free-surface scene with the wall-only projection of the penalty (the gears' and the dam break's opt-in).
-/// Returns, over `steps` steps, the largest component of δx into a face (−δx·n, in L) among particles that have
-/// a copy and are within α_w L of both faces of the kink, and the number of such (particle, step) pairs.
+/// Shifting beside a concave kink whose faces differ by less than the copies' merge angle (the paper
+/// channel's upper taper corner, 18.4°): a vessel (0, 0.15) → (0, 0) → (x_k, 0) → (0.12, (0.12 − x_k) tan
+/// θ) → (0.12, 0.15), L = 5 mm, water to 50 mm, positions jittered by up to 0.15 L (seeded) so the shifting
+/// acts, two particles at the kink placed (below). `closed`: the vessel has a lid at 50 mm, full of water,
+/// and the scene no free surface (as the channels: no normals are computed, n = 0, so eq. 99 removes the
+/// copy's wall normal only); open: the free-surface scene with the wall-only projection of the penalty (the
+/// gears' and the dam break's opt-in). Returns, over `steps` steps, the largest component of δx into a face
+/// (−δx·n, in L) among particles that have a copy and are within α_w L of both faces of the kink, and the
+/// number of such (particle, step) pairs.
 struct kink_shift_result {
   double into = 0.0;   // max over checked pairs of max(0, −δx·n_face) / L
   long checked = 0;    // (particle, step) pairs within α_w L of both faces with δx ≠ 0
@@ -189,11 +196,12 @@ template <bool closed>
 kink_shift_result run_kink_shift(bool merged_faces, double kink_deg, int steps) {
   const double L = 0.005, t = std::tan(kink_deg * std::numbers::pi / 180.0);
   // The kink 0.6 mm right of a lattice column (x = 57.5 mm). The first-row particle of that column is moved
-  // 0.06 L up and left, 0.56 L from the floor (its copy) and 0.59 L from the incline (its feet on both faces),
-  // and its left neighbour to 0.6 L from it: eq. 96's penalty pushes the pair apart, the kink particle along
-  // the floor toward the incline.
+  // 0.06 L up and left, 0.56 L from the floor (its copy) and 0.59 L from the incline (its feet on both
+  // faces), and its left neighbour to 0.6 L from it: eq. 96's penalty pushes the pair apart, the kink
+  // particle along the floor toward the incline.
   const double xk = 0.0581;
-  const vec<2> site(0.0575, 0.0025), moved(0.0572, 0.0028), left_site(0.0525, 0.0025), left_moved(0.0542, 0.0028);
+  const vec<2> site(0.0575, 0.0025), moved(0.0572, 0.0028), left_site(0.0525, 0.0025),
+      left_moved(0.0542, 0.0028);
   const double top = closed ? 0.05 : 0.15;
   const std::vector<vec<2>> v{{0.0, top}, {0.0, 0.0}, {xk, 0.0}, {0.12, (0.12 - xk) * t}, {0.12, top}};
   std::vector<std::array<index_t, 2>> el;
@@ -237,7 +245,8 @@ kink_shift_result run_kink_shift(bool merged_faces, double kink_deg, int steps) 
     sim.step();
     for (index_t i = 0; i < x_old.cols(); ++i) {
       const vec<2> y = x_old.col(i), dx = sim.shift_displacement(i);
-      if (dx.isZero(0.0) || !foot_within(y, v[1], v[2], n_floor) || !foot_within(y, v[2], v[3], n_incline)) continue;
+      if (dx.isZero(0.0) || !foot_within(y, v[1], v[2], n_floor) || !foot_within(y, v[2], v[3], n_incline))
+        continue;
       ++r.checked;
       r.into = std::max({r.into, -dx.dot(n_floor) / L, -dx.dot(n_incline) / L});
     }
@@ -248,7 +257,8 @@ kink_shift_result run_kink_shift(bool merged_faces, double kink_deg, int steps) 
 }  // namespace
 
 TEST_SUITE("hydrostatic_polygon") {
-  TEST_CASE("hydrostatic box at rest for 40 sqrt(H/g), 2D (issue #4 criteria, with the one-sided-band filter)") {
+  TEST_CASE(
+      "hydrostatic box at rest for 40 sqrt(H/g), 2D (issue #4 criteria, with the one-sided-band filter)") {
     const auto r = check_long_hydrostatic<2>(90.0, 0.01);
     // Issue #4's criteria, unchanged: every bin below the top two layers within 2 % of ρ g H (measured 3e-6);
     // RMS speed ≤ 1e-3 √(gH), max ≤ 1e-2 √(gH) at t = 40 √(H/g) (measured 6e-8 and 2e-7; without the filter
@@ -272,7 +282,8 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(r.guarded == 0);
     CHECK(r.min_signed_distance > 0.0);
   }
-  TEST_CASE("hydrostatic tank with a 60 degree incline for 40 sqrt(H/g), 2D: pressure met, residual speed not") {
+  TEST_CASE(
+      "hydrostatic tank with a 60 degree incline for 40 sqrt(H/g), 2D: pressure met, residual speed not") {
     const auto r = check_long_hydrostatic<2>(60.0, 0.01);
     CHECK(r.max_bin_error <= 0.02);  // issue #4: 2 % (measured 0.11 %)
     // Issue #4 asks RMS ≤ 1e-3 and max ≤ 1e-2 √(gH): unmet with the paper's α_g = 0.001 (measured 6.6e-3 and
@@ -283,13 +294,15 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(r.guarded == 0);
     CHECK(r.min_signed_distance > 0.0);
   }
-  TEST_CASE("hydrostatic tank with a 60 degree incline for 40 sqrt(H/g), 2D, alpha_g = 0.002: issue #4 criteria met") {
+  TEST_CASE(
+      "hydrostatic tank with a 60 degree incline for 40 sqrt(H/g), 2D, alpha_g = 0.002: issue #4 criteria "
+      "met") {
     // The residual motion of the case above is Tanaka's shifting (eqs. 93–100): with it off the tank stays at
-    // rest to 2e-12 √(gH). Eq. 93 shifts a particle only when |g_i − x_i| > α_g L_i; the paper's table lists α_g
-    // as a user-defined parameter (recommended 0.001). Beside the incline the lattice cut by the wall trips
-    // α_g = 0.001 (and 0.0015: RMS 6.0e-3) from t ≈ 1 s and the rearrangement that follows does not settle;
-    // from α_g = 0.002 the shifting stays idle at rest (measured RMS 1.5e-5, 1.6e-5, 2.0e-5 √(gH) for α_g =
-    // 0.002, 0.003, 0.005; at L = 5 mm with 0.003: 1.3e-5). Not the default: the dam break's opt-in
+    // rest to 2e-12 √(gH). Eq. 93 shifts a particle only when |g_i − x_i| > α_g L_i; the paper's table lists
+    // α_g as a user-defined parameter (recommended 0.001). Beside the incline the lattice cut by the wall
+    // trips α_g = 0.001 (and 0.0015: RMS 6.0e-3) from t ≈ 1 s and the rearrangement that follows does not
+    // settle; from α_g = 0.002 the shifting stays idle at rest (measured RMS 1.5e-5, 1.6e-5, 2.0e-5 √(gH) for
+    // α_g = 0.002, 0.003, 0.005; at L = 5 mm with 0.003: 1.3e-5). Not the default: the dam break's opt-in
     // configurations are chaotic in it (docs/lsmps_scheme.md).
     const auto r = check_long_hydrostatic<2>(60.0, 0.01, 0.002);
     CHECK(r.max_bin_error <= 0.02);  // issue #4: 2 % of ρgH per bin below the top two layers
@@ -298,11 +311,13 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(r.guarded == 0);
     CHECK(r.min_signed_distance > 0.0);
   }
-  TEST_CASE("hydrostatic prism with a 60 degree incline for 40 sqrt(H/g), 3D, eq. 99 along both walls of an edge") {
-    // 8 × 4 × 8 L, L = 12.5 mm. With the defaults the run fails at step 474 (t = 0.30 s): the particles of the
-    // tank's edges have copies on two walls and eq. 99 (one wall normal) let the second wall's copy push them
-    // off it. lsmps_params::shift_second_wall (opt-in, ours; docs/lsmps_scheme.md deviation 12) removes the
-    // component along every wall. Measured with it: bins 4.9e-4 ρgH, RMS 1.65e-4, max 5.9e-4 √(gH) at 40 √(H/g).
+  TEST_CASE(
+      "hydrostatic prism with a 60 degree incline for 40 sqrt(H/g), 3D, eq. 99 along both walls of an edge") {
+    // 8 × 4 × 8 L, L = 12.5 mm. With the defaults the run fails at step 474 (t = 0.30 s): the particles of
+    // the tank's edges have copies on two walls and eq. 99 (one wall normal) let the second wall's copy push
+    // them off it. lsmps_params::shift_second_wall (opt-in, ours; docs/lsmps_scheme.md deviation 12) removes
+    // the component along every wall. Measured with it: bins 4.9e-4 ρgH, RMS 1.65e-4, max 5.9e-4 √(gH) at 40
+    // √(H/g).
     const auto r = check_long_hydrostatic<3>(60.0, 0.0125, 0.001, true);
     CHECK(r.max_bin_error <= 0.02);  // issue #4: 2 % of ρgH per bin below the top two layers
     CHECK(r.rms_speed <= 1e-3);      // issue #4
@@ -315,23 +330,24 @@ TEST_SUITE("hydrostatic_polygon") {
     // < merge_angle_deg = 30°, so a particle within α_w L of both has one copy, and eq. 99 alone keeps δx
     // tangential to that copy's face only. The rule removes what points into the other face, so every
     // checked δx has δx·n ≥ 0 for both faces. Removing a component along n is exact up to rounding: 1e-12 L.
-    const kink_shift_result r[2][2] = {{run_kink_shift<true>(true, 18.4, 20), run_kink_shift<true>(false, 18.4, 20)},
-                                       {run_kink_shift<false>(true, 18.4, 20), run_kink_shift<false>(false, 18.4, 20)}};
+    const kink_shift_result r[2][2] = {
+        {run_kink_shift<true>(true, 18.4, 20), run_kink_shift<true>(false, 18.4, 20)},
+        {run_kink_shift<false>(true, 18.4, 20), run_kink_shift<false>(false, 18.4, 20)}};
     for (int c = 0; c < 2; ++c) {
       const kink_shift_result &on = r[c][0], &off = r[c][1];
       MESSAGE(std::string(c == 0 ? "closed, no surface" : "open, wall_only")
-              << ", 18.4 deg kink, 20 steps: with the rule " << on.checked << " checked, max into a face " << on.into
-              << " L; without " << off.checked << ", " << off.into << " L");
+              << ", 18.4 deg kink, 20 steps: with the rule " << on.checked << " checked, max into a face "
+              << on.into << " L; without " << off.checked << ", " << off.into << " L");
       CHECK(on.checked > 0);
       CHECK(on.into <= 1e-12);
-      // Without the rule the same scenes shift particles into a face (measured up to 3.2e-3 L in a step, the same
-      // in both; the channel's ratchet): the check above can fail.
-      // 1e-4 leaves 30x room.
+      // Without the rule the same scenes shift particles into a face (measured up to 3.2e-3 L in a step, the
+      // same in both; the channel's ratchet): the check above can fail. 1e-4 leaves 30x room.
       CHECK(off.checked > 0);
       CHECK(off.into > 1e-4);
     }
   }
-  TEST_CASE("first step from rest reproduces the hydrostatic pressure, 2D tanks with 60, 45 and 90 degree walls") {
+  TEST_CASE(
+      "first step from rest reproduces the hydrostatic pressure, 2D tanks with 60, 45 and 90 degree walls") {
     check_first_step_hydrostatic<2>(60.0, 0.005);
     check_first_step_hydrostatic<2>(45.0, 0.005);
     check_first_step_hydrostatic<2>(90.0, 0.005);
@@ -373,11 +389,11 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(sim.counters().isolated >= 50);
   }
   TEST_CASE("lsmps_params::remove_outside removes a particle at the first step that starts outside the box") {
-    // The lone droplet of the case above, thrown up at 1 m/s from y = 0.3 m, moves ballistically; with the box's
-    // top at y = 0.32 m (the tank's water is below 0.05 m) it is removed at the start of the first step after its
-    // position, by the same arithmetic, is above 0.32 m, and counted. It was isolated and far from the tank's
-    // fluid, so the tank's particles must be bitwise those of the same run without the box (the removed particle
-    // is the last slot: nobody else moves in the state).
+    // The lone droplet of the case above, thrown up at 1 m/s from y = 0.3 m, moves ballistically; with the
+    // box's top at y = 0.32 m (the tank's water is below 0.05 m) it is removed at the start of the first step
+    // after its position, by the same arithmetic, is above 0.32 m, and counted. It was isolated and far from
+    // the tank's fluid, so the tank's particles must be bitwise those of the same run without the box (the
+    // removed particle is the last slot: nobody else moves in the state).
     const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     const auto make = [&] {
@@ -441,11 +457,11 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK_THROWS_WITH_AS(empty.step(), doctest::Contains("every particle"), mpskit::error);
   }
   TEST_CASE("isolated droplets collide only with collision.isolated (seed 001 eq. 13, restitution alpha2)") {
-    // Two droplets of the case above, 0.45 L apart side by side, meeting head-on at ±1 m/s: both isolated (c < α_c).
-    // By default the collision stage leaves isolated particles alone (they move ballistically): u_x stays ±1 m/s.
-    // With collision.isolated the pair is in contact (0.45 L < α1 L = 0.5 L) and approaching, and eq. 13 with equal
-    // volumes (share 1/2) turns ±1 into ∓α2 = ∓0.2 m/s; gravity acts along y, across the pair, and changes nothing
-    // of u_x. Σ V u_x stays 0 either way.
+    // Two droplets of the case above, 0.45 L apart side by side, meeting head-on at ±1 m/s: both isolated
+    // (c < α_c). By default the collision stage leaves isolated particles alone (they move ballistically):
+    // u_x stays ±1 m/s. With collision.isolated the pair is in contact (0.45 L < α1 L = 0.5 L) and
+    // approaching, and eq. 13 with equal volumes (share 1/2) turns ±1 into ∓α2 = ∓0.2 m/s; gravity acts along
+    // y, across the pair, and changes nothing of u_x. Σ V u_x stays 0 either way.
     const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     const auto run = [&](bool isolated) {
@@ -477,9 +493,9 @@ TEST_SUITE("hydrostatic_polygon") {
     CHECK(bounced[1] == doctest::Approx(0.2).epsilon(1e-12));
   }
   TEST_CASE("the blow-up bound (time_step_params::max_speed) stops a run at the step that starts above it") {
-    // The lone droplet of the case above falls at g with Δt = 1e-3 s: |u| = k Δt |g| at the start of step k, so
-    // with the bound at 0.2 m/s the first step to start above it is k = ceil(0.2 / (Δt |g|)) (21 with |g| = 9.81);
-    // the tank's fluid, at rest, stays far below 0.2 m/s over 21 steps.
+    // The lone droplet of the case above falls at g with Δt = 1e-3 s: |u| = k Δt |g| at the start of step k,
+    // so with the bound at 0.2 m/s the first step to start above it is k = ceil(0.2 / (Δt |g|)) (21 with
+    // |g| = 9.81); the tank's fluid, at rest, stays far below 0.2 m/s over 21 steps.
     const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     scheme::lsmps_state<2> s0(tank.size() + 1);
@@ -495,15 +511,19 @@ TEST_SUITE("hydrostatic_polygon") {
     simulation<lsmps_defaults<2>> sim(p, std::move(s0), &tank.walls);
     const long k = static_cast<long>(std::ceil(0.2 / (1e-3 * p.g.norm())));
     for (long s = 0; s < k; ++s) REQUIRE_NOTHROW(sim.step());
-    const std::string expected = mpskit::detail::concat("blow-up at step ", k, ": particle ", tank.size(), " moves");
+    const std::string expected =
+        mpskit::detail::concat("blow-up at step ", k, ": particle ", tank.size(), " moves");
     CHECK_THROWS_WITH_AS(sim.step(), doctest::Contains(expected.c_str()), mpskit::error);
   }
-  TEST_CASE("Neumann-point walls with nothing to solve: two surface particles moving into a wall lose their normal velocity") {
-    // Every fluid particle a surface one (p = 0), so the PPE has no unknown, but the correction's gradient still
-    // carries the copies' Neumann data ∂p/∂n = ρ u′·n/Δt (eq. 83, copy_row = neumann_points, deviation 11). A
-    // vertical pair 0.5 L from the left wall, far from the floor, moving into the wall at 0.1 m/s: both have a
-    // copy, one fluid neighbour and an open cone away from the wall (surface, not isolated). Until 2026-11-29 the
-    // Neumann data was set after the no-unknown return, and this first step read an empty vector (a crash).
+  TEST_CASE(
+      "Neumann-point walls with nothing to solve: two surface particles moving into a wall lose their normal "
+      "velocity") {
+    // Every fluid particle a surface one (p = 0), so the PPE has no unknown, but the correction's gradient
+    // still carries the copies' Neumann data ∂p/∂n = ρ u′·n/Δt (eq. 83, copy_row = neumann_points, deviation
+    // 11). A vertical pair 0.5 L from the left wall, far from the floor, moving into the wall at 0.1 m/s:
+    // both have a copy, one fluid neighbour and an open cone away from the wall (surface, not isolated).
+    // Until 2026-11-29 the Neumann data was set after the no-unknown return, and this first step read an
+    // empty vector (a crash).
     const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     scheme::lsmps_state<2> s0(2);
@@ -522,13 +542,15 @@ TEST_SUITE("hydrostatic_polygon") {
     const auto& st = sim.state();
     for (index_t i = 0; i < 2; ++i) {
       CAPTURE(i);
-      REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::surface) != 0);  // the premise: nothing to solve
+      REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::surface) !=
+              0);  // the premise: nothing to solve
       REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::isolated) == 0);
       CHECK(st.get<field::pressure>()[i] == 0.0);
-      MESSAGE("u = (" << st.u()(0, i) << ", " << st.u()(1, i) << ") m/s, x - x_wall = " << (st.x()(0, i) - xw) / tc.L << " L");
+      MESSAGE("u = (" << st.u()(0, i) << ", " << st.u()(1, i)
+                      << ") m/s, x - x_wall = " << (st.x()(0, i) - xw) / tc.L << " L");
       // The Neumann-point fit imposes ∂p/∂n exactly, so Δt ∂p/∂n / ρ = u′·n cancels the normal velocity to
-      // rounding (measured 1.4e-17 m/s); along the wall only gravity acts (p = 0, equal velocities: no viscous
-      // term), u_y = g Δt (measured to the last digit).
+      // rounding (measured 1.4e-17 m/s); along the wall only gravity acts (p = 0, equal velocities: no
+      // viscous term), u_y = g Δt (measured to the last digit).
       CHECK(std::abs(st.u()(0, i)) <= 1e-12);
       CHECK(std::abs(st.u()(1, i) - p.g[1] * 1e-3) <= 1e-12);
     }
@@ -569,15 +591,16 @@ TEST_SUITE("bad_input") {
 }
 
 namespace {
-/// Five steps of the inviscid Taylor-Green vortex (4900 particles: above exec::par's 4096-item threshold, so the
-/// loops do run on two threads) on `threads` threads, with the collision stage at collision_alpha1 (0: off): positions,
-/// velocities, pressures and the colliding pairs counted.
+/// Five steps of the inviscid Taylor-Green vortex (4900 particles: above exec::par's 4096-item threshold, so
+/// the loops do run on two threads) on `threads` threads, with the collision stage at collision_alpha1 (0:
+/// off): positions, velocities, pressures and the colliding pairs counted.
 struct tg_threads_run {
   points<2> x, u;
   Eigen::VectorXd p;
   long collisions = 0;
 };
-/// The inviscid Taylor-Green vortex on an n x n lattice, periodic in both axes, with the collision stage at alpha1.
+/// The inviscid Taylor-Green vortex on an n x n lattice, periodic in both axes, with the collision stage at
+/// alpha1.
 cases::taylor_green_config tg_periodic(int n, double collision_alpha1) {
   cases::taylor_green_config c;
   c.n = n;
@@ -612,10 +635,10 @@ TEST_SUITE("lsmps_threads") {
 #endif
   }
   TEST_CASE("LSMPS scheme: a coincident pair is counted by the collision stage and the shifting") {
-    // Two particles at one point have no direction between them: the collision stage skips the pair and so does
-    // eq. 94 of the shifting; each counts it (lsmps_counters::collision_coincident, shift_coincident), once per
-    // direction. The Taylor-Green lattice (20 x 20, periodic) with particle 210 duplicated (same x, u, V): one step
-    // counts 2 directed pairs in each; the lattice without the duplicate counts none.
+    // Two particles at one point have no direction between them: the collision stage skips the pair and so
+    // does eq. 94 of the shifting; each counts it (lsmps_counters::collision_coincident, shift_coincident),
+    // once per direction. The Taylor-Green lattice (20 x 20, periodic) with particle 210 duplicated (same x,
+    // u, V): one step counts 2 directed pairs in each; the lattice without the duplicate counts none.
     const auto one_step = [](bool duplicate) {
       const cases::taylor_green_config c = tg_periodic(20, 0.5);
       const scheme::lsmps_state<2> lattice = cases::taylor_green_state(c);
@@ -640,8 +663,9 @@ TEST_SUITE("lsmps_threads") {
   TEST_CASE("LSMPS scheme with the collision stage: bitwise identical for 1 and 2 threads, pairs collide") {
     // The opt-in stage 9c (lsmps_params::collision, deviation 17) inside the stepper: the same Taylor-Green
     // set-up with alpha1 = 1 (contact at r <= L_ij: the lattice's nearest neighbours are at r = L, so the
-    // approaching pairs of the vortex's strain collide from the first step). Every Δu of the stage is computed
-    // from the same u (Jacobi), so the thread count must not change a bit; and the stage must actually act.
+    // approaching pairs of the vortex's strain collide from the first step). Every Δu of the stage is
+    // computed from the same u (Jacobi), so the thread count must not change a bit; and the stage must
+    // actually act.
 #ifdef _OPENMP
     const tg_threads_run a = run_tg_threads(1, 1.0), b = run_tg_threads(2, 1.0);
     CHECK(a.collisions > 0);
@@ -658,8 +682,9 @@ TEST_SUITE("lsmps_threads") {
 
 namespace {
 
-// One step of a 12 × 12 lattice blob (spacing 0.01 m) in free space (surface test on, no walls, g = 0) with the
-// velocity u(x − x_c) at each particle and the active-set options given: the pressures and the last PPE system.
+// One step of a 12 × 12 lattice blob (spacing 0.01 m) in free space (surface test on, no walls, g = 0) with
+// the velocity u(x − x_c) at each particle and the active-set options given: the pressures and the last PPE
+// system.
 struct blob_step {
   Eigen::VectorXd p, b;  // pressures by particle; the last PPE's right-hand side (rows: `rows`)
   ppe::matrix A;
@@ -687,8 +712,8 @@ blob_step run_blob_step(const std::function<vec<2>(const vec<2>&)>& u, int solve
   p.active_set_release = release;
   simulation<blob> sim(p, std::move(s0));
   sim.step();
-  return blob_step{Eigen::VectorXd(sim.state().get<field::pressure>().head(N * N)), sim.ppe_rhs(), sim.ppe_matrix(),
-                   sim.ppe_rows(), sim.counters()};
+  return blob_step{Eigen::VectorXd(sim.state().get<field::pressure>().head(N * N)), sim.ppe_rhs(),
+                   sim.ppe_matrix(), sim.ppe_rows(), sim.counters()};
 }
 
 // The 0.32 × 0.3 m tank of run_tank_blob (a static: the simulations keep a pointer to it).
@@ -718,9 +743,8 @@ tank_blob_sim make_tank_blob(const std::function<vec<2>(const vec<2>&)>& u, bool
 }
 
 // make_tank_blob run `steps` steps: positions, counters.
-std::pair<Eigen::MatrixXd, scheme::lsmps_counters> run_tank_blob(const std::function<vec<2>(const vec<2>&)>& u,
-                                                                 int steps, bool reuse, bool release,
-                                                                 bool warm = false) {
+std::pair<Eigen::MatrixXd, scheme::lsmps_counters> run_tank_blob(
+    const std::function<vec<2>(const vec<2>&)>& u, int steps, bool reuse, bool release, bool warm = false) {
   tank_blob_sim sim = make_tank_blob(u, reuse, release, warm);
   for (int k = 0; k < steps; ++k) sim.step();
   return std::pair(Eigen::MatrixXd(sim.state().x().leftCols(blob_n * blob_n)), sim.counters());
@@ -743,13 +767,15 @@ TEST_SUITE("det_f") {
   // Compile-time refusal (Tanaka §4.3: eq. 63 needs every second derivative separately).
   static_assert(!ppe::SecondDerivativeOperator<op::mps<2, kernel::quadratic>>, "classic MPS must be refused");
   static_assert(!ppe::SecondDerivativeOperator<op::lsmps_a<2, 1>>, "LSMPS order 1 must be refused");
-  static_assert(ppe::SecondDerivativeOperator<op::lsmps_a<2, 2>> && ppe::SecondDerivativeOperator<op::lsmps_a<3, 3>>);
+  static_assert(ppe::SecondDerivativeOperator<op::lsmps_a<2, 2>> &&
+                ppe::SecondDerivativeOperator<op::lsmps_a<3, 3>>);
 
-  TEST_CASE("PPE: fluid rows whose operator has a non-negative diagonal become p = 0 rows (wrong_sign_rows)") {
+  TEST_CASE(
+      "PPE: fluid rows whose operator has a non-negative diagonal become p = 0 rows (wrong_sign_rows)") {
     // An 8 × 8 lattice blob in free space with no surface test: every row is a det F row, and at the blob's
-    // edge the one-sided LSMPS-A second derivatives give 20 rows a diagonal ≥ 0 (measured; up to +12.7 against
-    // −1.1 or less elsewhere). Such a row is no discrete Laplacian at its particle; with them kept the
-    // BiCGSTAB solve of this first step diverged (NaN). The default makes those particles free surface.
+    // edge the one-sided LSMPS-A second derivatives give 20 rows a diagonal ≥ 0 (measured; up to +12.7
+    // against −1.1 or less elsewhere). Such a row is no discrete Laplacian at its particle; with them kept
+    // the BiCGSTAB solve of this first step diverged (NaN). The default makes those particles free surface.
     struct blob : lsmps_defaults<2> {
       using walls = scheme::no_walls;
       using surface = scheme::no_surface;
@@ -790,9 +816,9 @@ TEST_SUITE("det_f") {
 
   TEST_CASE("time step: Courant per particle (Tanaka eq. 64), min_i L_i/|u_i|, not min L / max |u|") {
     // Two 6 × 6 blobs far apart in free space (no walls, no surface test, g = 0): fine (L = 1 mm) at rest and
-    // coarse (L = 2 mm) moving at 1 m/s. Eq. 64 limits Δt by the coarse blob, α_C 2 mm / (1 m/s) = 2e-4 s, so the
-    // ladder 1e-3 / 2^k gives 1.25e-4 s; the global rule α_C (1 mm) / (1 m/s) = 1e-4 s gives 6.25e-5 s. With one
-    // diameter the two rules are the same (the fine blob moving too: both 6.25e-5 s).
+    // coarse (L = 2 mm) moving at 1 m/s. Eq. 64 limits Δt by the coarse blob, α_C 2 mm / (1 m/s) = 2e-4 s, so
+    // the ladder 1e-3 / 2^k gives 1.25e-4 s; the global rule α_C (1 mm) / (1 m/s) = 1e-4 s gives 6.25e-5 s.
+    // With one diameter the two rules are the same (the fine blob moving too: both 6.25e-5 s).
     struct blobs : lsmps_defaults<2> {
       using walls = scheme::no_walls;
       using surface = scheme::no_surface;
@@ -824,7 +850,8 @@ TEST_SUITE("det_f") {
     CHECK(dt_of(false, 1.0) == 6.25e-5);
   }
 
-  TEST_CASE("PPE active set (active_set_solves): p >= 0 where the plain solve pulls, unchanged where it pushes") {
+  TEST_CASE(
+      "PPE active set (active_set_solves): p >= 0 where the plain solve pulls, unchanged where it pushes") {
     // The blob of run_blob_step with u = a (x − x_c): expanding
     // (a > 0) the det F source is positive and the plain solve gives negative pressures inside; with the
     // active set those particles are held at p = 0 and the PPE solved again until none is negative.
@@ -840,8 +867,9 @@ TEST_SUITE("det_f") {
     CHECK(held.c.active_set_rows > 0);
     CHECK(held.c.active_set_solves >= 1);
     CHECK(held.c.active_set_unfinished == 0);
-    MESSAGE("expanding blob: plain min p = " << pull.p.minCoeff() << " Pa, active set " << held.c.active_set_rows
-                                             << " rows in " << held.c.active_set_solves << " repeated solves");
+    MESSAGE("expanding blob: plain min p = " << pull.p.minCoeff() << " Pa, active set "
+                                             << held.c.active_set_rows << " rows in "
+                                             << held.c.active_set_solves << " repeated solves");
     const outcome push = run(-1.0, 0), same = run(-1.0, 10);
     CHECK(push.p.minCoeff() >= 0.0);
     CHECK(same.c.active_set_rows == 0);
@@ -862,7 +890,8 @@ TEST_SUITE("det_f") {
     CHECK(c_reuse.active_set_rows > 0);
     check_same_tank_run(tank, run_tank(false));
     MESSAGE("blob on a tank floor, 5 steps: " << c_reuse.active_set_rows << " rows in the set over "
-                                              << c_reuse.active_set_solves << " repeated solves, " << c_reuse.copies << " copies");
+                                              << c_reuse.active_set_solves << " repeated solves, "
+                                              << c_reuse.copies << " copies");
     // Refused: a negative count, and clamping together with the set (it would hide what the set looks for).
     scheme::lsmps_params<2> bad;
     bad.active_set_solves = -1;
@@ -872,23 +901,27 @@ TEST_SUITE("det_f") {
     CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("negative = keep"), mpskit::error);
   }
 
-  TEST_CASE("PPE active set with releases (active_set_release): the complementarity p >= 0, w >= 0, p w = 0") {
+  TEST_CASE(
+      "PPE active set with releases (active_set_release): the complementarity p >= 0, w >= 0, p w = 0") {
     // The blob of run_blob_step with u = (|x − x_c|, 0): the left half is compressed, the right
-    // half stretched, so the plain solve pulls (p < 0) on the right. The set without releases holds the right half
-    // at p = 0, and some of it is then squeezed by the left half's pressure: freed, those rows would take p > 0
-    // (w = b − A p < 0 with a_ii < 0). With releases they leave the set. Checked against the plain run's system
-    // (A0, b0: the same first build, every non-surface particle an unknown, the rows independent of the set):
-    // rows with p > 0 meet their equation to the solver's tolerance (1e-8 relative, checked at 1e-6 of max |b0|),
-    // rows held at p = 0 have w / a_ii <= 0 (to 1e-9 of the largest pressure: round-off of two summation orders).
+    // half stretched, so the plain solve pulls (p < 0) on the right. The set without releases holds the right
+    // half at p = 0, and some of it is then squeezed by the left half's pressure: freed, those rows would
+    // take p > 0 (w = b − A p < 0 with a_ii < 0). With releases they leave the set. Checked against the plain
+    // run's system (A0, b0: the same first build, every non-surface particle an unknown, the rows independent
+    // of the set): rows with p > 0 meet their equation to the solver's tolerance (1e-8 relative, checked at
+    // 1e-6 of max |b0|), rows held at p = 0 have w / a_ii <= 0 (to 1e-9 of the largest pressure: round-off of
+    // two summation orders).
     using outcome = blob_step;
     const auto run = [](bool contracting, int solves, bool release, bool reuse = true) {
-      if (contracting) return run_blob_step([](const vec<2>& d) { return vec<2>(-d); }, solves, reuse, release);
-      return run_blob_step([](const vec<2>& d) { return vec<2>(std::abs(d[0]), 0.0); }, solves, reuse, release);
+      if (contracting)
+        return run_blob_step([](const vec<2>& d) { return vec<2>(-d); }, solves, reuse, release);
+      return run_blob_step([](const vec<2>& d) { return vec<2>(std::abs(d[0]), 0.0); }, solves, reuse,
+                           release);
     };
     const outcome plain = run(false, 0, false);
     CHECK(plain.p.minCoeff() < 0.0);
-    // Complementarity of pressures p (by particle) against the plain system: {rows held at 0 violating w >= 0,
-    // negatives, largest |w| / max|b0| over the rows with p > 0}.
+    // Complementarity of pressures p (by particle) against the plain system: {rows held at 0 violating
+    // w >= 0, negatives, largest |w| / max|b0| over the rows with p > 0}.
     const auto check = [&](const Eigen::VectorXd& p) {
       const auto m = static_cast<Eigen::Index>(plain.rows.size());
       Eigen::VectorXd pu(m);
@@ -914,9 +947,9 @@ TEST_SUITE("det_f") {
     CHECK(n_rel == 0);
     CHECK(v_rel == 0);
     CHECK(e_rel < 1e-6);
-    MESSAGE("half-compressed blob: grow-only set leaves " << v_grow << " rows squeezed at p = 0; with releases "
-                                                         << released.c.active_set_released << " released, residual "
-                                                         << e_rel);
+    MESSAGE("half-compressed blob: grow-only set leaves "
+            << v_grow << " rows squeezed at p = 0; with releases " << released.c.active_set_released
+            << " released, residual " << e_rel);
     // With releases the repeats reuse the rows between joins and build them all after a release
     // (active_set_reuse_rows, default): bitwise what building every row for every repeat gives, same counts.
     const outcome rebuilt = run(false, 10, true, false);
@@ -933,9 +966,9 @@ TEST_SUITE("det_f") {
     const auto& c_reuse = tank.second;
     CHECK(c_reuse.active_set_released > 0);
     check_same_tank_run(tank, run_tank(false));
-    MESSAGE("half-compressed blob on a tank floor, 6 steps: " << c_reuse.active_set_released << " released, "
-                                                            << c_reuse.active_set_rows << " joined in "
-                                                            << c_reuse.active_set_solves << " repeated solves");
+    MESSAGE("half-compressed blob on a tank floor, 6 steps: "
+            << c_reuse.active_set_released << " released, " << c_reuse.active_set_rows << " joined in "
+            << c_reuse.active_set_solves << " repeated solves");
     // A step whose last allowed solve leaves members that their rows would release, and no negative pressure,
     // is counted unfinished too (until 2026-12-05 only negatives were): one repeat, which releases nothing.
     const outcome cut = run(false, 1, true);
@@ -954,14 +987,16 @@ TEST_SUITE("det_f") {
     CHECK_THROWS_WITH_AS(bad.validate(), doctest::Contains("active_set_release"), mpskit::error);
   }
 
-  TEST_CASE("PPE active set warm-started from the last solve's set (active_set_warm_start): fewer repeats, restart") {
+  TEST_CASE(
+      "PPE active set warm-started from the last solve's set (active_set_warm_start): fewer repeats, "
+      "restart") {
     // The 6 steps of the release test's half-compressed blob on a tank floor, each step's set started empty
     // (cold, the default) and from the set the previous step ended with (warm: its particles held at p = 0
     // from the first solve, the releases tested after it). Where every step's iteration converges (no step
     // unfinished) both runs end at complementarity points of the same problem; when the point is unique (not
     // shown for these non-symmetric rows, but then they differ only by the solver's tolerance, 1e-8 relative,
-    // carried through 6 steps) positions agree within 1e-9 m (1e-7 L), measured 1.02e-12 m; not bitwise, or the
-    // warm start did nothing. The repeated solves and releases must drop: that is what the option is for.
+    // carried through 6 steps) positions agree within 1e-9 m (1e-7 L), measured 1.02e-12 m; not bitwise, or
+    // the warm start did nothing. The repeated solves and releases must drop: that is what the option is for.
     const auto u = [](const vec<2>& d) { return vec<2>(std::abs(d[0]), 0.0); };
     const auto cold = run_tank_blob(u, 6, true, true);
     const auto warm = run_tank_blob(u, 6, true, true, true);
@@ -972,11 +1007,10 @@ TEST_SUITE("det_f") {
     const double dx = (warm.first - cold.first).cwiseAbs().maxCoeff();
     CHECK(dx > 0.0);
     CHECK(dx < 1e-9);
-    MESSAGE("blob on a tank floor, 6 steps, cold / warm start: " << cold.second.active_set_solves << " / "
-                                                                << warm.second.active_set_solves << " repeated solves, "
-                                                                << cold.second.active_set_released << " / "
-                                                                << warm.second.active_set_released
-                                                                << " released; largest position difference " << dx << " m");
+    MESSAGE("blob on a tank floor, 6 steps, cold / warm start: "
+            << cold.second.active_set_solves << " / " << warm.second.active_set_solves << " repeated solves, "
+            << cold.second.active_set_released << " / " << warm.second.active_set_released
+            << " released; largest position difference " << dx << " m");
     // The carried set is state: 3 steps, saved, 3 more; loaded into a new stepper, 3 more: bitwise the same.
     mpskit::test::scratch tmp("mpskit_test_lsmps_flow", "warm_start");
     tank_blob_sim a = make_tank_blob(u, true, true, true);
@@ -992,7 +1026,9 @@ TEST_SUITE("det_f") {
     for (int k = 0; k < 3; ++k) b.step();
     const index_t n = blob_n * blob_n;
     CHECK((a.state().x().leftCols(n).array() == b.state().x().leftCols(n).array()).all());
-    CHECK((a.state().get<field::pressure>().head(n).array() == b.state().get<field::pressure>().head(n).array()).all());
+    CHECK(
+        (a.state().get<field::pressure>().head(n).array() == b.state().get<field::pressure>().head(n).array())
+            .all());
     CHECK(a.active_set_held() == b.active_set_held());
     CHECK(a.counters().active_set_solves == b.counters().active_set_solves);
     CHECK(a.counters().active_set_released == b.counters().active_set_released);
@@ -1010,8 +1046,8 @@ TEST_SUITE("det_f") {
     st.clear_ghosts();
     CHECK_THROWS_WITH_AS(d.restore(st, 0.0, 0.0, {}, {}, {}, 0, {held.back() + 100000}),
                          doctest::Contains("held ids"), mpskit::error);
-    CHECK_THROWS_WITH_AS(d.restore(st, 0.0, 0.0, {}, {}, {}, 0, {held[0], held[0]}), doctest::Contains("held ids"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(d.restore(st, 0.0, 0.0, {}, {}, {}, 0, {held[0], held[0]}),
+                         doctest::Contains("held ids"), mpskit::error);
   }
 
   TEST_CASE("c' of eq. 62: 1 inside [c_min, c_max], linear outside, limited to [c'_min, c'_max]") {
@@ -1050,7 +1086,8 @@ TEST_SUITE("det_f") {
         CHECK(((C.transpose() * A - det * mat<D>::Identity()).cwiseAbs().maxCoeff()) <= 1e-14);
         // Jacobi's formula: (det(A + ε dA) − det(A − ε dA)) / 2ε = cof(A):dA + O(ε²); ε = 1e-4 → error ~1e-8.
         const double eps = 1e-4;
-        const double fd = (ppe::det_f::determinant<D>(A + eps * dA) - ppe::det_f::determinant<D>(A - eps * dA)) / (2 * eps);
+        const double fd =
+            (ppe::det_f::determinant<D>(A + eps * dA) - ppe::det_f::determinant<D>(A - eps * dA)) / (2 * eps);
         CHECK(std::abs(fd - (C.array() * dA.array()).sum()) <= 1e-7);
       }
     };
@@ -1088,8 +1125,8 @@ TEST_SUITE("det_f") {
 namespace {
 
 /// Tanaka's dam break (§5.6.1) at L = 4 mm to T = T_end (cases/tanaka_dam_break_run.hpp): front samples every
-/// 0.05 T against the band of issue #4 (Martin & Moyce and Koshizuka & Oka ± 10 %), lowest fluid pressure, guard
-/// activations.
+/// 0.05 T against the band of issue #4 (Martin & Moyce and Koshizuka & Oka ± 10 %), lowest fluid pressure,
+/// guard activations.
 struct tanaka_run {
   int samples = 0, inside = 0;
   int inside_widened = 0;  // inside the band widened by `widen` in Z on both sides
@@ -1104,13 +1141,14 @@ struct tanaka_run {
   double max_u = 0.0;  // largest fluid |u| over all steps, in √(gH)
 };
 /// Runs c with p to T_end and measures (`what` names the configuration in the printed line).
-tanaka_run measure_tanaka_dam_break(const cases::tanaka_dam_break_config& c, double T_end, const scheme::lsmps_params<2>& p,
-                                    double widen, const std::string& what) {
+tanaka_run measure_tanaka_dam_break(const cases::tanaka_dam_break_config& c, double T_end,
+                                    const scheme::lsmps_params<2>& p, double widen, const std::string& what) {
   const double L = c.L, sqrt_gH = std::sqrt(c.g * c.column_height);
   const auto r = cases::run_tanaka_dam_break(c, T_end, p, false);
   // The fastest fluid particle after any step (issue #9's hard-case bound: 5 √(gH)), recorded by the runner.
   const double u_max = r.u_max, T_u = r.T_u_max;
-  const std::vector<cases::front_series> data = cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
+  const std::vector<cases::front_series> data =
+      cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
   int samples = 0, inside = 0, inside_widened = 0;
   for (std::size_t k = 0; k < r.T.size(); ++k) {
     const auto band = cases::front_band(data, r.T[k]);
@@ -1119,13 +1157,19 @@ tanaka_run measure_tanaka_dam_break(const cases::tanaka_dam_break_config& c, dou
     const bool ok = r.Z[k] >= band.first && r.Z[k] <= band.second;
     inside += ok;
     inside_widened += r.Z[k] >= band.first - widen && r.Z[k] <= band.second + widen;
-    if (!ok) std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", r.T[k], r.Z[k], band.first, band.second);
+    if (!ok)
+      std::printf("dam_break_lsmps: T = %.2f Z = %.3f outside [%.3f, %.3f]\n", r.T[k], r.Z[k], band.first,
+                  band.second);
   }
-  std::printf("dam_break_lsmps L = %g mm to T = %.2f (%s): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = %.0f; copies %.0f), "
-              "%ld steps, filtered %ld particle-steps, guarded %ld, min r_ij/L_ij %.3f (T = %.2f), max |u| %.2f sqrt(gH) (T = %.2f), "
-              "active-set rows %ld (unfinished steps %ld)\n",
-              1e3 * L, T_end, what.c_str(), inside, samples, r.p_min, -r.rho_g_h, r.p_min_copies, r.steps, r.filtered, r.guarded,
-              r.min_pair_ratio, r.T_min_pair, u_max / sqrt_gH, T_u, r.active_set_rows, r.active_set_unfinished);
+  std::printf(
+      "dam_break_lsmps L = %g mm to T = %.2f (%s): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = "
+      "%.0f; copies %.0f), "
+      "%ld steps, filtered %ld particle-steps, guarded %ld, min r_ij/L_ij %.3f (T = %.2f), max |u| %.2f "
+      "sqrt(gH) (T = %.2f), "
+      "active-set rows %ld (unfinished steps %ld)\n",
+      1e3 * L, T_end, what.c_str(), inside, samples, r.p_min, -r.rho_g_h, r.p_min_copies, r.steps, r.filtered,
+      r.guarded, r.min_pair_ratio, r.T_min_pair, u_max / sqrt_gH, T_u, r.active_set_rows,
+      r.active_set_unfinished);
   tanaka_run out;
   out.samples = samples;
   out.inside = inside;
@@ -1143,14 +1187,16 @@ tanaka_run measure_tanaka_dam_break(const cases::tanaka_dam_break_config& c, dou
   for (std::size_t k = 0; k < r.T.size() && std::isnan(out.T_front_at_probe); ++k)
     if (r.Z[k] >= (0.191 - c.vessel_left) / c.column_width) out.T_front_at_probe = r.T[k];
   if (std::isfinite(out.impact.t_arrival))
-    std::printf("dam_break_lsmps probe (195, 5) mm: wet at T = %.3f (front past 191 mm at T = %.2f); over 10 ms: "
-                "impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered peak %.0f Pa, every-100-steps peak %.0f Pa "
-                "(paper 4433 Pa at 1 mm, every 100 steps)%s\n",
-                out.impact.t_arrival * out.T_of_t, out.T_front_at_probe, out.impact.impulse, out.impact.peak,
-                out.impact.peak_filtered, out.impact.peak_sparse, out.impact.complete ? "" : " [window incomplete]");
+    std::printf(
+        "dam_break_lsmps probe (195, 5) mm: wet at T = %.3f (front past 191 mm at T = %.2f); over 10 ms: "
+        "impulse %.2f Pa s, peak %.0f Pa, 2 ms-filtered peak %.0f Pa, every-100-steps peak %.0f Pa "
+        "(paper 4433 Pa at 1 mm, every 100 steps)%s\n",
+        out.impact.t_arrival * out.T_of_t, out.T_front_at_probe, out.impact.impulse, out.impact.peak,
+        out.impact.peak_filtered, out.impact.peak_sparse, out.impact.complete ? "" : " [window incomplete]");
   return out;
 }
-tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize::penalty_projection projection,
+tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point,
+                                regularize::penalty_projection projection,
                                 scheme::copy_row_kind copy_row = scheme::copy_row_kind::parent_gradient,
                                 int active_set_solves = 0, double widen = 0.0, double L = 0.004,
                                 double max_amplification = std::numeric_limits<double>::infinity()) {
@@ -1162,11 +1208,12 @@ tanaka_run run_tanaka_dam_break(double T_end, double copy_two_point, regularize:
   p.copy_two_point = copy_two_point;
   p.shift.projection = projection;
   p.boundary_filter.max_amplification = max_amplification;
-  return measure_tanaka_dam_break(c, T_end, p, widen,
-                                  mpskit::detail::concat("neumann_points ", int(copy_row == scheme::copy_row_kind::neumann_points),
-                                                         ", copy_two_point ", copy_two_point, ", wall_only ",
-                                                         int(projection == regularize::penalty_projection::wall_only),
-                                                         ", active set ", active_set_solves));
+  return measure_tanaka_dam_break(
+      c, T_end, p, widen,
+      mpskit::detail::concat("neumann_points ", int(copy_row == scheme::copy_row_kind::neumann_points),
+                             ", copy_two_point ", copy_two_point, ", wall_only ",
+                             int(projection == regularize::penalty_projection::wall_only), ", active set ",
+                             active_set_solves));
 }
 /// The same with a wall variant of cases::tanaka_wall_variants.
 tanaka_run run_tanaka_dam_break(double T_end, const std::string& walls, double L, double widen = 0.0) {
@@ -1181,9 +1228,10 @@ tanaka_run run_tanaka_dam_break(double T_end, const std::string& walls, double L
 
 TEST_SUITE("dam_break_lsmps") {
   TEST_CASE("Tanaka's vessel with closed_top: the lid closes the chain, its normal into the vessel") {
-    // Open by default: three elements, and a point above the vessel is not behind any wall. closed_top adds the
-    // fourth element (right, top) -> (left, top); its left normal is -y (into the vessel), so the vessel's
-    // inside has signed distance > 0 and a point above the lid < 0, and a move across the lid is a crossing.
+    // Open by default: three elements, and a point above the vessel is not behind any wall. closed_top adds
+    // the fourth element (right, top) -> (left, top); its left normal is -y (into the vessel), so the
+    // vessel's inside has signed distance > 0 and a point above the lid < 0, and a move across the lid is a
+    // crossing.
     cases::tanaka_dam_break_config c;
     c.L = 0.01;
     const double H = c.vessel_height;
@@ -1202,9 +1250,10 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(closed.size() == open.size());  // the same column
   }
   TEST_CASE("measure_impact: a triangular pulse's arrival, impulse, peak, filtered peak and sparse peak") {
-    // p = H (1 − |t − t0|/b) on |t − t0| < b, 0 elsewhere, dry (NaN) before t = 0.1 s, every 1e-5 s. The kinks sit
-    // on samples, so the trapezoids integrate exactly: impulse H b; the 2 ms centred average at the apex is
-    // H (1 − f/(4b)); every 100th step (step k + 1 of the run) the largest sample is at t = 0.10499 s.
+    // p = H (1 − |t − t0|/b) on |t − t0| < b, 0 elsewhere, dry (NaN) before t = 0.1 s, every 1e-5 s. The
+    // kinks sit on samples, so the trapezoids integrate exactly: impulse H b; the 2 ms centred average at the
+    // apex is H (1 − f/(4b)); every 100th step (step k + 1 of the run) the largest sample is at
+    // t = 0.10499 s.
     const double H = 4000.0, t0 = 0.105, b = 0.003, dt = 1e-5;
     std::vector<double> t, p;
     for (int k = 0; k <= 20000; ++k) {
@@ -1224,15 +1273,17 @@ TEST_SUITE("dam_break_lsmps") {
     const auto cut = cases::measure_impact(std::vector<double>(t.begin(), t.begin() + 10401),
                                            std::vector<double>(p.begin(), p.begin() + 10401), 0.02, 0.002);
     CHECK_FALSE(cut.complete);
-    CHECK(cut.impulse == doctest::Approx(0.5 * H * (0.002 / b) * 0.002).epsilon(1e-9));  // the ramp to 0.104 s
+    CHECK(cut.impulse ==
+          doctest::Approx(0.5 * H * (0.002 / b) * 0.002).epsilon(1e-9));  // the ramp to 0.104 s
     CHECK(std::isnan(cases::measure_impact({0.0, 1.0}, {std::nan(""), std::nan("")}, 0.02, 0.002).t_arrival));
-    CHECK_THROWS_WITH_AS(cases::measure_impact({0.0, 1.0}, {0.0}, 0.02, 0.002), doctest::Contains("2 times but 1"),
-                         mpskit::error);
-    CHECK_THROWS_WITH_AS(cases::measure_impact({0.0, 0.0}, {0.0, 0.0}, 0.02, 0.002), doctest::Contains("not increasing"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::measure_impact({0.0, 1.0}, {0.0}, 0.02, 0.002),
+                         doctest::Contains("2 times but 1"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::measure_impact({0.0, 0.0}, {0.0, 0.0}, 0.02, 0.002),
+                         doctest::Contains("not increasing"), mpskit::error);
     CHECK_THROWS_AS(cases::measure_impact({0.0, 1.0}, {0.0, 0.0}, 0.0, 0.002), mpskit::error);
   }
-  TEST_CASE("Tanaka's dam break (§5.6.1), L = 4 mm, defaults: surge front inside the data band for T <= 1.25") {
+  TEST_CASE(
+      "Tanaka's dam break (§5.6.1), L = 4 mm, defaults: surge front inside the data band for T <= 1.25") {
     // Issue #7 asks T ≤ 3 (the band of issue #4). With the defaults the floor copies' pressures run away from
     // T ≈ 1.35 and the run fails at T ≈ 1.6 (docs/lsmps_scheme.md): asserted up to T = 1.25.
     const auto r = run_tanaka_dam_break(1.25, 0.0, regularize::penalty_projection::with_displacement);
@@ -1241,17 +1292,19 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.pmin >= -r.rho_g_h);  // issue #7: p ≥ −ρ g H (fluid; measured −1519 Pa to T = 1.25)
     CHECK(r.guarded == 0);
   }
-  TEST_CASE("Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting: front in the band for T <= 3, probe") {
+  TEST_CASE(
+      "Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting: front in the band for T <= "
+      "3, probe") {
     // copy_two_point = 1 and shift.projection = wall_only (opt-in, docs/lsmps_scheme.md): the front stays in
     // the band at all 61 samples to T = 3 and the run reaches the far wall. Unmet, hence not the defaults:
     // the fluid pressure dips far below −ρgH (measured −4.1e4 Pa at the far-wall impact, −1.0e5 Pa before
     // wrong-sign rows became p = 0 rows (docs/lsmps_scheme.md, deviation 10), −1 to −6 kPa before
-    // it; −4.8e5 Pa before c′ = 1 beside walls); before that change, at L = 5 mm the run failed at T ≈ 2.6, at
-    // L = 3 mm at T ≈ 1.75; as defaults they cost elsewhere (Poiseuille 3.0 → 3.6 %, tanks at rest spread
-    // with wall_only: docs/lsmps_scheme.md).
-    // Run to T = 3.1 for the first impact at the probe (195, 5) mm (issue #7): wet at T ≈ 2.91, the 10 ms window
-    // ends at T ≈ 3.05. Its numbers are reported (docs/validation.md); asserted: the probe gets wet when the front
-    // reaches it (the front is sampled every 0.05 in T; the two agree within two samples) and the window completes.
+    // it; −4.8e5 Pa before c′ = 1 beside walls); before that change, at L = 5 mm the run failed at T ≈ 2.6,
+    // at L = 3 mm at T ≈ 1.75; as defaults they cost elsewhere (Poiseuille 3.0 → 3.6 %, tanks at rest spread
+    // with wall_only: docs/lsmps_scheme.md). Run to T = 3.1 for the first impact at the probe (195, 5) mm
+    // (issue #7): wet at T ≈ 2.91, the 10 ms window ends at T ≈ 3.05. Its numbers are reported
+    // (docs/validation.md); asserted: the probe gets wet when the front reaches it (the front is sampled
+    // every 0.05 in T; the two agree within two samples) and the window completes.
     const auto r = run_tanaka_dam_break(3.1, 1.0, regularize::penalty_projection::wall_only);
     CHECK(r.samples >= 55);  // the band's data end at T = 3
     CHECK(r.inside == r.samples);
@@ -1260,49 +1313,58 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.impact.complete);
     CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
     CHECK(r.impact.peak_filtered > 0.0);  // the water pushes on the wall
-    // Clustering (cases::min_pair_ratio after every step): issue #9's bound for its hard cases, r_ij/L_ij ≥ 0.3.
-    // Measured 0.454 (at T = 2.50); the Neumann-point run below falls to 0.104 by T = 1.9 (printed).
+    // Clustering (cases::min_pair_ratio after every step): issue #9's bound for its hard cases,
+    // r_ij/L_ij ≥ 0.3. Measured 0.454 (at T = 2.50); the Neumann-point run below falls to 0.104 by T = 1.9
+    // (printed).
     CHECK(r.min_pair >= 0.3);
   }
-  TEST_CASE("Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting + active set + bounded filter: through the impact") {
-    // active_set_solves = 10 (opt-in, docs/lsmps_scheme.md deviation 13): fluid pressures solved below 0 are held
-    // at 0 and the PPE solved again: p ≥ 0 by construction (no step left unfinished), so issue #7's p ≥ −ρgH holds
-    // (the copies, auxiliary unknowns, go below). Until 2026-12-01 this run failed in the far-wall impact at
-    // T ≈ 2.95: the one-sided-band filter's fit at a splash particle beside the wall (six neighbours, all on one
-    // side) extrapolated to 13, then 1177 m/s and shot it out at 75 m/s. With the filter bounded (opt-in
-    // boundary_filter_params::max_amplification = 20, docs/lsmps_scheme.md) it runs through the impact and the
-    // probe's 10 ms window. The front is ahead of the band at T = 1.75–1.85 by ≤ 0.015 in Z (1.5 mm, < L/2), as
-    // before the bound; asserted: at most 4 misses, each within L/2 = 0.02 in Z.
-    const auto r = run_tanaka_dam_break(3.2, 1.0, regularize::penalty_projection::wall_only,
-                                        scheme::copy_row_kind::parent_gradient, 10, 0.5 * 0.004 / 0.1, 0.004, 20.0);
+  TEST_CASE(
+      "Tanaka's dam break, L = 4 mm, two-point copy rows + contact-line shifting + active set + bounded "
+      "filter: through the impact") {
+    // active_set_solves = 10 (opt-in, docs/lsmps_scheme.md deviation 13): fluid pressures solved below 0 are
+    // held at 0 and the PPE solved again: p ≥ 0 by construction (no step left unfinished), so issue #7's
+    // p ≥ −ρgH holds (the copies, auxiliary unknowns, go below). Until 2026-12-01 this run failed in the
+    // far-wall impact at T ≈ 2.95: the one-sided-band filter's fit at a splash particle beside the wall (six
+    // neighbours, all on one side) extrapolated to 13, then 1177 m/s and shot it out at 75 m/s. With the
+    // filter bounded (opt-in boundary_filter_params::max_amplification = 20, docs/lsmps_scheme.md) it runs
+    // through the impact and the probe's 10 ms window. The front is ahead of the band at T = 1.75–1.85
+    // by ≤ 0.015 in Z (1.5 mm, < L/2), as before the bound; asserted: at most 4 misses, each within
+    // L/2 = 0.02 in Z.
+    const auto r =
+        run_tanaka_dam_break(3.2, 1.0, regularize::penalty_projection::wall_only,
+                             scheme::copy_row_kind::parent_gradient, 10, 0.5 * 0.004 / 0.1, 0.004, 20.0);
     CHECK(r.samples >= 55);  // the band's data end at T = 3
     CHECK(r.inside_widened == r.samples);
     CHECK(r.samples - r.inside <= 4);
     CHECK(r.active_set_unfinished == 0);
     CHECK(r.pmin >= 0.0);  // by the set (a kept negative would be counted above); issue #7 asks ≥ −ρgH
     CHECK(r.active_set_rows > 0);
-    CHECK(r.guarded <= 4);  // measured 2 (in the impact); issue #9's hard cases report leakage rather than forbid it
+    CHECK(r.guarded <=
+          4);  // measured 2 (in the impact); issue #9's hard cases report leakage rather than forbid it
     REQUIRE(std::isfinite(r.impact.t_arrival));
     CHECK(r.impact.complete);  // the run got through the probe's 10 ms window
     CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
     CHECK(r.min_pair >= 0.5);  // issue #9's hard-case bound is 0.3; measured 0.689
   }
-  TEST_CASE("Tanaka's dam break, L = 5 mm, two-point copy rows + contact-line shifting + active set: through the impact") {
-    // The configuration above at L = 5 mm, run to T = 3.2 through the far-wall impact: the one spacing at which
-    // every dam-break criterion of issue #7 holds through the probe's 10 ms window (measured 2026-11-27: band
-    // 65/65, p >= 0, no guard activation, closest pair 0.579 L, probe wet at T = 2.975, impulse 27.85 Pa s,
-    // 2 ms-filtered peak 11.7 kPa against the paper's 4433 Pa at 1 mm; raw peak 99.8 kPa). Not at 4 mm (fails
-    // in the impact at T ≈ 2.96; with the opt-in bounded filter it passes, case above), 3 mm (T ≈ 2.78) or 5.5 mm
-    // (T ≈ 2.6, a splash on the far wall); 4.5 mm passes the impact but with 7 guard activations
-    // (docs/lsmps_scheme.md, deviation 13). The outcome in
-    // the impact is still a matter of the spacing, so this is a reproducible data point for the probe with
-    // p >= -rho g H, not a claim that the option makes the impact robust.
+  TEST_CASE(
+      "Tanaka's dam break, L = 5 mm, two-point copy rows + contact-line shifting + active set: through the "
+      "impact") {
+    // The configuration above at L = 5 mm, run to T = 3.2 through the far-wall impact: the one spacing at
+    // which every dam-break criterion of issue #7 holds through the probe's 10 ms window (measured
+    // 2026-11-27: band 65/65, p >= 0, no guard activation, closest pair 0.579 L, probe wet at T = 2.975,
+    // impulse 27.85 Pa s, 2 ms-filtered peak 11.7 kPa against the paper's 4433 Pa at 1 mm; raw peak
+    // 99.8 kPa). Not at 4 mm (fails in the impact at T ≈ 2.96; with the opt-in bounded filter it passes, case
+    // above), 3 mm (T ≈ 2.78) or 5.5 mm (T ≈ 2.6, a splash on the far wall); 4.5 mm passes the impact but
+    // with 7 guard activations (docs/lsmps_scheme.md, deviation 13). The outcome in the impact is still a
+    // matter of the spacing, so this is a reproducible data point for the probe with p >= -rho g H, not a
+    // claim that the option makes the impact robust.
     const auto r = run_tanaka_dam_break(3.2, 1.0, regularize::penalty_projection::wall_only,
                                         scheme::copy_row_kind::parent_gradient, 10, 0.0, 0.005);
     CHECK(r.samples >= 60);
     CHECK(r.inside == r.samples);  // the issue's band, strictly
     CHECK(r.active_set_unfinished == 0);
-    CHECK(r.pmin >= 0.0);  // by the set; issue #7 asks >= -rho g H (the copies, auxiliary unknowns: -11 rho g H)
+    CHECK(r.pmin >=
+          0.0);  // by the set; issue #7 asks >= -rho g H (the copies, auxiliary unknowns: -11 rho g H)
     CHECK(r.guarded == 0);
     CHECK(r.min_pair >= 0.5);  // issue #9's hard-case bound is 0.3
     REQUIRE(std::isfinite(r.impact.t_arrival));
@@ -1310,21 +1372,24 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);  // wet when the front arrives
     CHECK(r.impact.peak_filtered > 0.0);  // the water pushes on the wall
   }
-  TEST_CASE("Tanaka's dam break, L = 3.5 mm, active set with copies + own-loop guard + cond1(M) <= 1e4: through the impact, quietly") {
-    // Variant two_point_wall_only_active_set_own_loop_copies_conditioned (docs/lsmps_scheme.md "Ill-conditioned
-    // fits"): the own-loop variant with the wall copies in the active set fails here (T = 3.07): two surface
-    // particles 0.04 L apart on the right wall, their two copies at one point with p = 0 and 1.26e4 Pa, and a fit
-    // whose points are collinear to within ~1e-3 L (order 1 accepted up to cond1 = 1e8) reads a vertical gradient
-    // 1197 times the largest difference quotient: 10.6 -> 154 m/s in one step. With op.max_condition = 1e4 such
-    // fits fall back (a lower order, else regularised; whether this one arises then is not known, the runs part
-    // long before: the largest such ratio over the run is 3.4), and the run gets through the impact with issue #9's
-    // hard-case bounds. Measured
-    // 2026-12-02: max |u| 2.97 sqrt(gH), no guard activation, closest pair 0.516 L, p >= 0; over the 31 spacings
-    // 3.0-6.0 mm 31 reach T = 3.2 (row tpoc_mc1e4), one spacing is one sample, not the claim.
-    // The front: within the issue's band widened by one diameter (L / h0 = 0.035 in Z). Measured: 49 of 65 samples
-    // inside the band itself, the 16 others ahead of it by at most 0.023 in Z (0.66 L, at T = 2.10): the LSMPS
-    // front's lead over the data, which grows with refinement (docs/validation.md, "Dam break").
-    const auto r = run_tanaka_dam_break(3.2, "two_point_wall_only_active_set_own_loop_copies_conditioned", 0.0035, 0.035);
+  TEST_CASE(
+      "Tanaka's dam break, L = 3.5 mm, active set with copies + own-loop guard + cond1(M) <= 1e4: through "
+      "the impact, quietly") {
+    // Variant two_point_wall_only_active_set_own_loop_copies_conditioned (docs/lsmps_scheme.md
+    // "Ill-conditioned fits"): the own-loop variant with the wall copies in the active set fails here
+    // (T = 3.07): two surface particles 0.04 L apart on the right wall, their two copies at one point with
+    // p = 0 and 1.26e4 Pa, and a fit whose points are collinear to within ~1e-3 L (order 1 accepted up to
+    // cond1 = 1e8) reads a vertical gradient 1197 times the largest difference quotient: 10.6 -> 154 m/s in
+    // one step. With op.max_condition = 1e4 such fits fall back (a lower order, else regularised; whether
+    // this one arises then is not known, the runs part long before: the largest such ratio over the run is
+    // 3.4), and the run gets through the impact with issue #9's hard-case bounds. Measured 2026-12-02: max
+    // |u| 2.97 sqrt(gH), no guard activation, closest pair 0.516 L, p >= 0; over the 31 spacings 3.0-6.0 mm
+    // 31 reach T = 3.2 (row tpoc_mc1e4), one spacing is one sample, not the claim. The front: within the
+    // issue's band widened by one diameter (L / h0 = 0.035 in Z). Measured: 49 of 65 samples inside the band
+    // itself, the 16 others ahead of it by at most 0.023 in Z (0.66 L, at T = 2.10): the LSMPS front's lead
+    // over the data, which grows with refinement (docs/validation.md, "Dam break").
+    const auto r = run_tanaka_dam_break(3.2, "two_point_wall_only_active_set_own_loop_copies_conditioned",
+                                        0.0035, 0.035);
     CHECK(r.samples >= 60);
     CHECK(r.inside_widened == r.samples);
     CHECK(r.active_set_unfinished == 0);
@@ -1336,12 +1401,14 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.impact.complete);  // through the probe's 10 ms window
     CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
   }
-  TEST_CASE("scheme::lsmps_impact_params: the reporter's wall variant tanaka_impact_walls plus the collision stage") {
+  TEST_CASE(
+      "scheme::lsmps_impact_params: the reporter's wall variant tanaka_impact_walls plus the collision "
+      "stage") {
     // The reporter's variant (benchmarks/report_dam_break.cpp: row tpocml with --lsmps-collision 0.5
-    // --lsmps-collide-isolated --lsmps-shift-isolated), with which the runs of docs/validation.md were made, is
-    // the library's preset without its collision settings (since 2026-12-04; until then written out, field by
-    // field, as the other variants are). Every setting either touches must agree, and the rest must stay Tanaka's
-    // (the 2D and 3D presets alike).
+    // --lsmps-collide-isolated --lsmps-shift-isolated), with which the runs of docs/validation.md were made,
+    // is the library's preset without its collision settings (since 2026-12-04; until then written out, field
+    // by field, as the other variants are). Every setting either touches must agree, and the rest must stay
+    // Tanaka's (the 2D and 3D presets alike).
     scheme::lsmps_params<2> v;
     cases::tanaka_wall_variant_named(cases::tanaka_impact_walls, "test").apply(v);
     CHECK(v.collision.alpha1 == 0.0);  // a wall variant leaves the collision settings to its caller
@@ -1383,22 +1450,26 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(q.time.courant == 0.05);
     CHECK(q.active_set_solves == 10);
   }
-  TEST_CASE("Tanaka's dam break, L = 3 mm, the main example's options: through the impact with no guard activation") {
-    // scheme::lsmps_impact_params<2>(): the conditioned, limited wall variant with the collision stage (alpha1 0.5,
-    // isolated particles too) and isolated particles in the shifting penalty (docs/lsmps_scheme.md deviations 13,
-    // 15-18; all opt-in). With them every spacing from 6 to 1.5 mm measured gets through the far-wall impact to
-    // T = 3.2 with no guard activation, p >= 0 and no pair closer than 0.469 L (docs/validation.md, "With the
-    // collision stage and the isolated-particle options as well"); 3 mm is the spacing with the fastest particle
-    // of the 6-2 mm runs but 2 mm's splash. Measured 2026-12-03 (-O3 harness, the same code): guard 0, p >= 0,
-    // closest pair 0.477 L, max |u| 5.47 sqrt(gH) (issue #9's 5 is not asserted here: this is issue #7's case),
-    // the probe wet at T = 2.839, 45 of 65 front samples in the band, the others ahead of it by at most 0.079 in
-    // Z (2.6 L, T = 2.75): the LSMPS front's lead over the data, which grows with refinement; asserted within
-    // the band widened by 3 L (0.09 in Z). Run to T = 3.05 since 2026-12-04 (T = 3.2 before; cut for issue #7's
-    // CI budget on a slower machine, 87 -> 71 s): the probe's 10 ms window ends at T = 2.98, and the extremes fall
-    // before it (max |u| at T = 2.87, the closest pair at T = 2.89; 42 of 62 samples in the band, measured).
+  TEST_CASE(
+      "Tanaka's dam break, L = 3 mm, the main example's options: through the impact with no guard "
+      "activation") {
+    // scheme::lsmps_impact_params<2>(): the conditioned, limited wall variant with the collision stage
+    // (alpha1 0.5, isolated particles too) and isolated particles in the shifting penalty
+    // (docs/lsmps_scheme.md deviations 13, 15-18; all opt-in). With them every spacing from 6 to 1.5 mm
+    // measured gets through the far-wall impact to T = 3.2 with no guard activation, p >= 0 and no pair
+    // closer than 0.469 L (docs/validation.md, "With the collision stage and the isolated-particle options as
+    // well"); 3 mm is the spacing with the fastest particle of the 6-2 mm runs but 2 mm's splash. Measured
+    // 2026-12-03 (-O3 harness, the same code): guard 0, p >= 0, closest pair 0.477 L, max |u| 5.47 sqrt(gH)
+    // (issue #9's 5 is not asserted here: this is issue #7's case), the probe wet at T = 2.839, 45 of 65
+    // front samples in the band, the others ahead of it by at most 0.079 in Z (2.6 L, T = 2.75): the LSMPS
+    // front's lead over the data, which grows with refinement; asserted within the band widened by 3 L (0.09
+    // in Z). Run to T = 3.05 since 2026-12-04 (T = 3.2 before; cut for issue #7's CI budget on a slower
+    // machine, 87 -> 71 s): the probe's 10 ms window ends at T = 2.98, and the extremes fall before it (max
+    // |u| at T = 2.87, the closest pair at T = 2.89; 42 of 62 samples in the band, measured).
     cases::tanaka_dam_break_config c;
     c.L = 0.003;
-    const auto r = measure_tanaka_dam_break(c, 3.05, scheme::lsmps_impact_params<2>(), 0.09, "lsmps_impact_params");
+    const auto r =
+        measure_tanaka_dam_break(c, 3.05, scheme::lsmps_impact_params<2>(), 0.09, "lsmps_impact_params");
     // (A failed run throws: catch_failure is off in measure_tanaka_dam_break.)
     CHECK(r.inside_widened == r.samples);
     CHECK(r.active_set_unfinished == 0);
@@ -1407,7 +1478,8 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.min_pair >= 0.45);   // the collision stage: 0.06 L at 3 mm without it (docs/validation.md)
     REQUIRE(std::isfinite(r.impact.t_arrival));
     CHECK(r.impact.complete);    // through the probe's 10 ms window
-    CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);  // wet by the surge, not a film
+    CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <=
+          0.1);  // wet by the surge, not a film
   }
   TEST_CASE("Tanaka's dam break, L = 4 mm, copies as Neumann points: band and p >= -rho g H for T <= 1.9") {
     // copy_row = neumann_points (opt-in, docs/lsmps_scheme.md deviation 11): no copy unknowns, so the floor
@@ -1415,8 +1487,9 @@ TEST_SUITE("dam_break_lsmps") {
     // at 39/39 samples, no guard activation, the lowest fluid pressure −1945 Pa = −0.99 ρgH (a thin margin:
     // a bottom-row particle 0.38 L above the floor at T = 0.87; elsewhere ≥ −0.92 ρgH). The defaults meet
     // p ≥ −ρgH only to T = 1.25 and fail at T = 1.62. This run fails at T ≈ 2.0 (a particle at the top of a
-    // film on the left wall, 0.13 L from it, not flagged surface), so T = 1.9 is as far as it is asserted. That
-    // film clusters first: the closest fluid pair is 0.10 L apart at T = 1.9 (printed; docs/lsmps_scheme.md).
+    // film on the left wall, 0.13 L from it, not flagged surface), so T = 1.9 is as far as it is asserted.
+    // That film clusters first: the closest fluid pair is 0.10 L apart at T = 1.9 (printed;
+    // docs/lsmps_scheme.md).
     const auto r = run_tanaka_dam_break(1.9, 0.0, regularize::penalty_projection::with_displacement,
                                         scheme::copy_row_kind::neumann_points);
     CHECK(r.samples >= 37);
@@ -1425,13 +1498,14 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.guarded == 0);
   }
 
-  TEST_CASE("dam break with BiCGSTAB-ILU(0) (ppe::bicgstab_ilu0): the Jacobi run's flow, in fewer iterations") {
+  TEST_CASE(
+      "dam break with BiCGSTAB-ILU(0) (ppe::bicgstab_ilu0): the Jacobi run's flow, in fewer iterations") {
     // The scene's solver is a policy: ppe::bicgstab_ilu0 in place of the default BiCGSTAB-Jacobi, the same
-    // tolerance (1e-8), the lagged factors of the stepper's same-unknowns signal. Tanaka's dam break at L = 8 mm
-    // with lsmps_impact_params to T = 1 (before the surge reaches the far wall; the flow does not yet amplify the
-    // solvers' different last digits): the same steps, the front samples to 1e-6 (measured: 1.1e-11) and max |u|
-    // to 1e-5 relative; ILU(0) at most half the PPE iterations (3198 against 14 650, measured;
-    // 5.2× fewer at 4 mm, 6.4× at 2 mm: docs/performance.md "ILU(0) for the LSMPS PPE").
+    // tolerance (1e-8), the lagged factors of the stepper's same-unknowns signal. Tanaka's dam break at
+    // L = 8 mm with lsmps_impact_params to T = 1 (before the surge reaches the far wall; the flow does not
+    // yet amplify the solvers' different last digits): the same steps, the front samples to 1e-6 (measured:
+    // 1.1e-11) and max |u| to 1e-5 relative; ILU(0) at most half the PPE iterations (3198 against 14 650,
+    // measured; 5.2× fewer at 4 mm, 6.4× at 2 mm: docs/performance.md "ILU(0) for the LSMPS PPE").
     cases::tanaka_dam_break_config c;
     c.L = 0.008;
     const scheme::lsmps_params<2> p = scheme::lsmps_impact_params<2>();
@@ -1441,25 +1515,27 @@ TEST_SUITE("dam_break_lsmps") {
     REQUIRE(ilu0.Z.size() == jacobi.Z.size());
     REQUIRE(jacobi.Z.size() >= 20);  // every 0.05 T
     double dz = 0.0;
-    for (std::size_t k = 0; k < jacobi.Z.size(); ++k) dz = std::max(dz, std::abs(ilu0.Z[k] - jacobi.Z[k]) / jacobi.Z[k]);
-    MESSAGE("ILU(0) " << ilu0.ppe_iterations << " PPE iterations against Jacobi's " << jacobi.ppe_iterations << " over "
-                      << ilu0.steps << " steps; max |u| " << ilu0.u_max << " / " << jacobi.u_max
+    for (std::size_t k = 0; k < jacobi.Z.size(); ++k)
+      dz = std::max(dz, std::abs(ilu0.Z[k] - jacobi.Z[k]) / jacobi.Z[k]);
+    MESSAGE("ILU(0) " << ilu0.ppe_iterations << " PPE iterations against Jacobi's " << jacobi.ppe_iterations
+                      << " over " << ilu0.steps << " steps; max |u| " << ilu0.u_max << " / " << jacobi.u_max
                       << " m/s; largest front difference " << dz);
     CHECK(dz <= 1e-6);
     CHECK(ilu0.u_max == doctest::Approx(jacobi.u_max).epsilon(1e-5));
     CHECK(2 * ilu0.ppe_iterations <= jacobi.ppe_iterations);
     CHECK(ilu0.guarded == 0);
-    // The solve ledger (lsmps_counters::ppe_solves, ppe_factorisations): each step solves once, plus the active
-    // set's and the own-loop guard's repeats (every system here has unknowns), whatever the solver; Jacobi
-    // factorises nothing; ILU(0) with the default lag factorises at least every ilut_reuse-th solve and at most at
-    // every solve and lagged retry (measured: 348 factorisations for 351 solves over 177 steps); factorised at every
-    // solve (ilut_reuse = 1: no lag, no retry), exactly once per solve.
+    // The solve ledger (lsmps_counters::ppe_solves, ppe_factorisations): each step solves once, plus the
+    // active set's and the own-loop guard's repeats (every system here has unknowns), whatever the solver;
+    // Jacobi factorises nothing; ILU(0) with the default lag factorises at least every ilut_reuse-th solve
+    // and at most at every solve and lagged retry (measured: 348 factorisations for 351 solves over 177
+    // steps); factorised at every solve (ilut_reuse = 1: no lag, no retry), exactly once per solve.
     scheme::lsmps_params<2> fresh_p = p;
     fresh_p.solver.ilut_reuse = 1;
     const auto fresh = cases::run_tanaka_dam_break<cases::tanaka_ilu0_scene>(c, 1.0, fresh_p);
     MESSAGE("PPE solves " << ilu0.ppe_solves << " (Jacobi " << jacobi.ppe_solves << ", fresh factors "
                           << fresh.ppe_solves << ") over " << ilu0.steps << " steps, ILU(0) factorisations "
-                          << ilu0.ppe_factorisations << " (fresh factors " << fresh.ppe_factorisations << ")");
+                          << ilu0.ppe_factorisations << " (fresh factors " << fresh.ppe_factorisations
+                          << ")");
     for (const auto* r : {&jacobi, &ilu0, &fresh}) {
       CHECK(r->ppe_solves == r->steps + r->active_set_solves + r->own_loop_solves);
       CHECK(r->active_set_solves + r->own_loop_solves > 0);  // the repeats are exercised
@@ -1473,23 +1549,26 @@ TEST_SUITE("dam_break_lsmps") {
 }
 
 TEST_SUITE("dam_break_slab") {
-  // Tanaka's dam break as a 3D slab (cases/tanaka_dam_break_slab.hpp). Not one of issue #7's cases (its dam break is
-  // 2D): its own label since 2026-12-06, so that issue #7's CI budget counts the issue's cases (the slab run is
-  // ≈ 77 s of one core; docs/resolution.md "CI sizes").
-  TEST_CASE("Tanaka's dam break in 3D (a slab periodic in y), L = 12.5 mm, scheme::lsmps_impact_params<3>: to the far wall") {
-    // cases/tanaka_dam_break_slab.hpp: the 2D vessel extruded along y over 8 L, periodic (the period must exceed
-    // twice the search radius, 7.44 L), so the flow is plane and its front should be the 2D run's up to the
-    // discretisation. Measured 2026-12-04 at 10 mm (the example, -O3, the same code): 651 steps to T = 3.4, front in
-    // the band at 69 of 69 samples, guard 0, p >= 0, max |u| 2.33 sqrt(gH), closest pair 0.495 L; the largest body's
-    // front at the far wall (Z >= 3.9) from T = 3.15 on; against the 2D run with lsmps_impact_params<2> at 10 mm the
-    // largest relative front difference to T = 2.5 is 2.26 % (3.36 % to T = 3.4). This test runs 12.5 mm (10 mm
-    // until 2026-12-04, 124 -> 58 s, cut for issue #7's CI budget on a slower machine; the period is 8 L = 100 mm):
-    // 1024 particles, 510 steps to T = 3.3, band 67/67, the body at the far wall at 3 of 3
-    // samples from T = 3.2, guard 0, p >= 0, max |u| 2.06 sqrt(gH), closest pair 0.571 L, against the 2D run at
-    // 12.5 mm 1.62 % to T = 2.5 (50 samples). Asserted within 4 %: closed by
-    // two end walls 4 L apart the slab's front lagged the 2D run's by 5.7 % (their copies carry the wall velocity
-    // and the one-sided-band filter drags the layers beside them: docs/lsmps_scheme.md "The impact configuration").
-    // With Tanaka's Table 2 the slab blows up before T = 1.2 (measured with end walls at 10, 6.67 and 5 mm).
+  // Tanaka's dam break as a 3D slab (cases/tanaka_dam_break_slab.hpp). Not one of issue #7's cases (its dam
+  // break is 2D): its own label since 2026-12-06, so that issue #7's CI budget counts the issue's cases (the
+  // slab run is ≈ 77 s of one core; docs/resolution.md "CI sizes").
+  TEST_CASE(
+      "Tanaka's dam break in 3D (a slab periodic in y), L = 12.5 mm, scheme::lsmps_impact_params<3>: to the "
+      "far wall") {
+    // cases/tanaka_dam_break_slab.hpp: the 2D vessel extruded along y over 8 L, periodic (the period must
+    // exceed twice the search radius, 7.44 L), so the flow is plane and its front should be the 2D run's up
+    // to the discretisation. Measured 2026-12-04 at 10 mm (the example, -O3, the same code): 651 steps to
+    // T = 3.4, front in the band at 69 of 69 samples, guard 0, p >= 0, max |u| 2.33 sqrt(gH), closest pair
+    // 0.495 L; the largest body's front at the far wall (Z >= 3.9) from T = 3.15 on; against the 2D run with
+    // lsmps_impact_params<2> at 10 mm the largest relative front difference to T = 2.5 is 2.26 % (3.36 % to
+    // T = 3.4). This test runs 12.5 mm (10 mm until 2026-12-04, 124 -> 58 s, cut for issue #7's CI budget on
+    // a slower machine; the period is 8 L = 100 mm): 1024 particles, 510 steps to T = 3.3, band 67/67, the
+    // body at the far wall at 3 of 3 samples from T = 3.2, guard 0, p >= 0, max |u| 2.06 sqrt(gH), closest
+    // pair 0.571 L, against the 2D run at 12.5 mm 1.62 % to T = 2.5 (50 samples). Asserted within 4 %: closed
+    // by two end walls 4 L apart the slab's front lagged the 2D run's by 5.7 % (their copies carry the wall
+    // velocity and the one-sided-band filter drags the layers beside them: docs/lsmps_scheme.md "The impact
+    // configuration"). With Tanaka's Table 2 the slab blows up before T = 1.2 (measured with end walls at 10,
+    // 6.67 and 5 mm).
     cases::tanaka_dam_break_config c;
     c.L = 0.0125;  // 8 x 16 x 8 particles in the column
     const auto r = cases::run_tanaka_slab(c, 8, 3.3, scheme::lsmps_impact_params<3>());
@@ -1498,7 +1577,8 @@ TEST_SUITE("dam_break_slab") {
         cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
     int samples = 0, inside = 0, at_wall = 0, after = 0;
     for (std::size_t k = 0; k < r.T.size(); ++k) {
-      if (r.T[k] >= 3.2) ++after, at_wall += r.Z_body[k] >= 3.9;  // the body at the far wall (Z = 4) to the end
+      if (r.T[k] >= 3.2)
+        ++after, at_wall += r.Z_body[k] >= 3.9;  // the body at the far wall (Z = 4) to the end
       const auto band = cases::front_band(data, r.T[k]);
       if (std::isnan(band.first)) continue;
       ++samples;
@@ -1510,7 +1590,8 @@ TEST_SUITE("dam_break_slab") {
     int compared = 0;
     for (std::size_t k = 0; k < r.T.size() && r.T[k] <= 2.5; ++k) {
       if (r.T[k] < r2.T.front() || r.T[k] > r2.T.back()) continue;
-      const auto it = std::upper_bound(r2.T.begin(), r2.T.end(), r.T[k]);  // not begin: r.T[k] >= r2.T.front()
+      const auto it =
+          std::upper_bound(r2.T.begin(), r2.T.end(), r.T[k]);  // not begin: r.T[k] >= r2.T.front()
       const std::size_t j = it == r2.T.end() ? r2.T.size() - 1 : static_cast<std::size_t>(it - r2.T.begin());
       const double w = (r.T[k] - r2.T[j - 1]) / (r2.T[j] - r2.T[j - 1]);
       const double z2 = (1.0 - w) * r2.Z[j - 1] + w * r2.Z[j];
@@ -1518,12 +1599,13 @@ TEST_SUITE("dam_break_slab") {
       ++compared;
     }
     const double sqrt_gH = std::sqrt(c.g * c.column_height);
-    std::printf("dam_break_slab 3D slab (periodic, 8 layers) L = 12.5 mm to T = 3.3: %ld particles, %ld steps, front "
-                "in band %d/%d, body at the far wall at %d of %d samples from T = 3.2, min fluid p %.0f Pa, guarded "
-                "%ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f, collisions %ld, against 2D to T = 2.5: %.2f %% "
-                "(%d samples)\n",
-                static_cast<long>(r.particles), r.steps, inside, samples, at_wall, after, r.p_min, r.guarded,
-                r.u_max / sqrt_gH, r.min_pair_ratio, r.collisions, 100.0 * diff, compared);
+    std::printf(
+        "dam_break_slab 3D slab (periodic, 8 layers) L = 12.5 mm to T = 3.3: %ld particles, %ld steps, front "
+        "in band %d/%d, body at the far wall at %d of %d samples from T = 3.2, min fluid p %.0f Pa, guarded "
+        "%ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f, collisions %ld, against 2D to T = 2.5: %.2f %% "
+        "(%d samples)\n",
+        static_cast<long>(r.particles), r.steps, inside, samples, at_wall, after, r.p_min, r.guarded,
+        r.u_max / sqrt_gH, r.min_pair_ratio, r.collisions, 100.0 * diff, compared);
     CHECK(samples >= 60);
     CHECK(inside == samples);               // issue #4's band (the data ± 10 %), as the 2D runs
     CHECK(after >= 2);
@@ -1547,15 +1629,16 @@ TEST_SUITE("dam_break_slab") {
       CHECK(s.walls.size() == (sides == cases::slab_sides::periodic ? 6 : 10));
       // Every particle at least L/2 inside every wall; the column's extent exactly h0 x B x 2 h0.
       double closest = 1e300;
-      for (index_t i = 0; i < s.size(); ++i) closest = std::min(closest, s.walls.signed_distance(vec<3>(s.x.col(i))));
+      for (index_t i = 0; i < s.size(); ++i)
+        closest = std::min(closest, s.walls.signed_distance(vec<3>(s.x.col(i))));
       CHECK(closest == doctest::Approx(0.5 * c.L));
       CHECK(s.x.row(0).minCoeff() == doctest::Approx(0.005));
       CHECK(s.x.row(0).maxCoeff() == doctest::Approx(0.095));
       CHECK(s.x.row(1).minCoeff() == doctest::Approx(0.005));
       CHECK(s.x.row(1).maxCoeff() == doctest::Approx(0.025));
       CHECK(s.x.row(2).maxCoeff() == doctest::Approx(0.195));
-      // The far wall at x = 0.4 and the floor: a point 1 cm inside each, mid-slab, is 1 cm from the walls; near an
-      // end (y = 2 mm) only the end wall is closer.
+      // The far wall at x = 0.4 and the floor: a point 1 cm inside each, mid-slab, is 1 cm from the walls;
+      // near an end (y = 2 mm) only the end wall is closer.
       CHECK(s.walls.signed_distance(vec<3>(0.39, 0.015, 0.15)) == doctest::Approx(0.01));
       CHECK(s.walls.signed_distance(vec<3>(0.2, 0.015, 0.01)) == doctest::Approx(0.01));
       CHECK(s.walls.signed_distance(vec<3>(0.2, 0.002, 0.1)) ==
@@ -1564,13 +1647,15 @@ TEST_SUITE("dam_break_slab") {
     CHECK_THROWS_WITH_AS(cases::make_tanaka_slab(c, 0), doctest::Contains("layers"), mpskit::error);
     auto bad = c;
     bad.L = 0.003;  // 100/3 mm: not a whole number of spacings
-    CHECK_THROWS_WITH_AS(cases::make_tanaka_slab(bad, 4), doctest::Contains("whole numbers of L"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_slab(bad, 4), doctest::Contains("whole numbers of L"),
+                         mpskit::error);
     bad = c;
     bad.vessel_height = 0.205;  // below the column + L
     CHECK_THROWS_WITH_AS(cases::make_tanaka_slab(bad, 4), doctest::Contains("vessel_height"), mpskit::error);
-    CHECK_THROWS_WITH_AS(cases::make_tanaka_slab(cases::tanaka_obstacle_config(), 4), doctest::Contains("obstacle"),
-                         mpskit::error);
-    // A period not above twice the search radius (2 x 1.2 x 3.1 L = 7.44 L) is refused by the search at the start.
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_slab(cases::tanaka_obstacle_config(), 4),
+                         doctest::Contains("obstacle"), mpskit::error);
+    // A period not above twice the search radius (2 x 1.2 x 3.1 L = 7.44 L) is refused by the search at the
+    // start.
     CHECK_THROWS_WITH_AS(cases::run_tanaka_slab(c, 7, 0.1, scheme::lsmps_impact_params<3>()),
                          doctest::Contains("period"), mpskit::error);
   }
@@ -1578,12 +1663,13 @@ TEST_SUITE("dam_break_slab") {
 
 TEST_SUITE("restart") {
   TEST_CASE("restart: Tanaka's dam break in three pieces gives the uninterrupted run's numbers bitwise") {
-    // cases::run_tanaka_dam_break with the example's configuration (lsmps_impact_params) at L = 10 mm to T = 3.3,
-    // the far-wall impact included (probe wet at T ≈ 3.04): once straight, once in pieces — stopped after its first
-    // step (stop_after 1e-9 wall seconds), resumed to T = 2 (a T_end other than the first piece's, checkpoint
-    // written at the end), resumed from that file to T = 3.3. Every sample and extreme equals the straight run's
-    // bitwise: BiCGSTAB-Jacobi keeps no factorisation across steps (io/lsmps_checkpoint.hpp), and the runner's
-    // running measurements (front and probe samples, extremes, the next front sample's T) travel in the file.
+    // cases::run_tanaka_dam_break with the example's configuration (lsmps_impact_params) at L = 10 mm to
+    // T = 3.3, the far-wall impact included (probe wet at T ≈ 3.04): once straight, once in pieces — stopped
+    // after its first step (stop_after 1e-9 wall seconds), resumed to T = 2 (a T_end other than the first
+    // piece's, checkpoint written at the end), resumed from that file to T = 3.3. Every sample and extreme
+    // equals the straight run's bitwise: BiCGSTAB-Jacobi keeps no factorisation across steps
+    // (io/lsmps_checkpoint.hpp), and the runner's running measurements (front and probe samples, extremes,
+    // the next front sample's T) travel in the file.
     mpskit::test::scratch tmp("mpskit_test_lsmps_flow", "tanaka_pieces");
     cases::tanaka_dam_break_config c;
     c.L = 0.01;
@@ -1614,7 +1700,8 @@ TEST_SUITE("restart") {
     third.resume = second.checkpoint;
     const auto r = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, third);
     CHECK(r.resumed_at == b.T_reached);
-    CHECK(r.wall_seconds_before > b.wall_seconds_before);  // the earlier pieces' wall time travels in the file
+    CHECK(r.wall_seconds_before >
+          b.wall_seconds_before);  // the earlier pieces' wall time travels in the file
     CHECK(b.wall_seconds_before > 0.0);
     using mpskit::test::same_bits;
     REQUIRE(straight.probe_t.size() == r.probe_t.size());
@@ -1649,12 +1736,14 @@ TEST_SUITE("restart") {
     // stop_after without a file.
     auto other = c;
     other.L = 0.0125;
-    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(other, 3.3, p, false, cases::no_tanaka_observer{}, third),
-                         doctest::Contains("was written with L = 0.01"), mpskit::error);
+    CHECK_THROWS_WITH_AS(
+        cases::run_tanaka_dam_break(other, 3.3, p, false, cases::no_tanaka_observer{}, third),
+        doctest::Contains("was written with L = 0.01"), mpskit::error);
     auto other_g = c;
     other_g.g = 9.81;
-    CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(other_g, 3.3, p, false, cases::no_tanaka_observer{}, third),
-                         doctest::Contains("was written with g = 9.8"), mpskit::error);
+    CHECK_THROWS_WITH_AS(
+        cases::run_tanaka_dam_break(other_g, 3.3, p, false, cases::no_tanaka_observer{}, third),
+        doctest::Contains("was written with g = 9.8"), mpskit::error);
     cases::tanaka_pieces reserved;
     reserved.checkpoint = (tmp / "r.mpscp").string();
     reserved.save_extra = [](io::checkpoint_sections& s) { s.add_doubles("tanaka_dam_break.mine", {1.0}); };
@@ -1664,11 +1753,14 @@ TEST_SUITE("restart") {
     no_file.stop_after = 10.0;
     CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 0.1, p, false, cases::no_tanaka_observer{}, no_file),
                          doctest::Contains("need a checkpoint file"), mpskit::error);
-    // A file that cannot be written is refused before the first step, with catch_failure too (not a scheme failure).
+    // A file that cannot be written is refused before the first step, with catch_failure too (not a scheme
+    // failure).
     cases::tanaka_pieces unwritable;
     unwritable.checkpoint = (tmp / "no_such_dir" / "x.mpscp").string();
-    CHECK_THROWS_AS(cases::run_tanaka_dam_break(c, 0.1, p, true, cases::no_tanaka_observer{}, unwritable), mpskit::error);
-    // ... and so is one that fails later (here the caller's section on the second write, after the first step).
+    CHECK_THROWS_AS(cases::run_tanaka_dam_break(c, 0.1, p, true, cases::no_tanaka_observer{}, unwritable),
+                    mpskit::error);
+    // ... and so is one that fails later (here the caller's section on the second write, after the first
+    // step).
     cases::tanaka_pieces later;
     later.checkpoint = (tmp / "later.mpscp").string();
     later.checkpoint_interval = 1e-9;
@@ -1684,8 +1776,8 @@ TEST_SUITE("restart") {
     CHECK_THROWS_WITH_AS(cases::run_tanaka_dam_break(c, 1.5, p, false, cases::no_tanaka_observer{}, past),
                          doctest::Contains("nothing to run"), mpskit::error);
 
-    // A run killed before its first interval leaves the checkpoint written before the first step; resumed from it,
-    // the run is the straight one.
+    // A run killed before its first interval leaves the checkpoint written before the first step; resumed
+    // from it, the run is the straight one.
     cases::tanaka_pieces killed;
     killed.checkpoint = (tmp / "db0.mpscp").string();
     killed.checkpoint_interval = 1e6;

@@ -432,7 +432,8 @@ TEST_SUITE("operators") {
     }
   }
 
-  TEST_CASE("op: lsmps type A, D components in one sweep (gradients, laplacians) equal D scalar calls bitwise") {
+  TEST_CASE(
+      "op: lsmps type A, D components in one sweep (gradients, laplacians) equal D scalar calls bitwise") {
     // The schemes take ∇u and ∇²u of a velocity's components from one neighbour sweep (moment_vectors); the
     // sums are the same terms in the same order, so the results must be equal to the bit, with per-particle
     // sizes and with a filter (every third particle left out). Fields: two unrelated samples with noise.
@@ -455,7 +456,8 @@ TEST_SUITE("operators") {
       for (int a = 0; a < 2; ++a) {
         const Eigen::VectorXd& ua = u[static_cast<std::size_t>(a)];
         differ += (G.row(a).transpose().array() != A.gradient(B.x, nl, i, ua).array()).count();
-        differ += (Gf.row(a).transpose().array() != A.gradient(B.x, nl, i, ua, every_third_out).array()).count();
+        differ +=
+            (Gf.row(a).transpose().array() != A.gradient(B.x, nl, i, ua, every_third_out).array()).count();
         differ += l[a] != A.laplacian(B.x, nl, i, ua);
         differ += lf[a] != A.laplacian(B.x, nl, i, ua, every_third_out);
       }
@@ -591,13 +593,14 @@ TEST_SUITE("operators") {
     }
   }
 
-  TEST_CASE("op: lsmps type B into a reused stencil and workspace: the returning form's numbers, bit for bit") {
+  TEST_CASE(
+      "op: lsmps type B into a reused stencil and workspace: the returning form's numbers, bit for bit") {
     // The in-place form (regularize::boundary_filter's loop) overwrites every member and reuses the vectors'
     // capacity: points with large, small (a corner: fewer candidates, a larger condition number), degenerate
     // (the two particles nearest the centre: a fallback, flagged) and again large neighbourhoods, through one
-    // stencil and one workspace, give exactly what a fresh call gives. Fails if a member or the scratch is not
-    // reset. (The returning form calls the in-place one with fresh objects: this checks the reuse, not the fit,
-    // whose exactness the reproduction tests above check.)
+    // stencil and one workspace, give exactly what a fresh call gives. Fails if a member or the scratch is
+    // not reset. (The returning form calls the in-place one with fresh objects: this checks the reuse, not
+    // the fit, whose exactness the reproduction tests above check.)
     std::mt19937_64 rng(test_seed() + 41);
     MESSAGE("seed " << test_seed() + 41 << " (set MPSKIT_TEST_SEED to replay)");
     const double h = 0.1;
@@ -641,8 +644,8 @@ TEST_SUITE("operators") {
     // 1e16, 1, −1e16 make the sum order visible in the bits: (1e16 + 1) − 1e16 = 0 but (1e16 − 1e16) + 1 = 1.
     std::mt19937_64 rng(test_seed() + 43);
     MESSAGE("seed " << test_seed() + 43 << " (set MPSKIT_TEST_SEED to replay)");
-    for (const std::size_t len : {std::size_t{0}, std::size_t{1}, std::size_t{12}, std::size_t{64}, std::size_t{65},
-                                  std::size_t{300}}) {
+    for (const std::size_t len : {std::size_t{0}, std::size_t{1}, std::size_t{12}, std::size_t{64},
+                                  std::size_t{65}, std::size_t{300}}) {
       CAPTURE(len);
       const auto top = static_cast<index_t>(len / 3 + 1);  // columns 0..top, so most of them repeat
       const index_t i = top + 1;                            // the row: outside the drawn columns
@@ -910,8 +913,9 @@ TEST_SUITE("operators") {
     }
   }
 
-  TEST_CASE_TEMPLATE("op: neumann points: wall points carrying exact ∂f/∂n reproduce a quadratic beside a wall", Dim,
-                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+  TEST_CASE_TEMPLATE(
+      "op: neumann points: wall points carrying exact ∂f/∂n reproduce a quadratic beside a wall", Dim,
+      std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
     // The wall y = 0 sampled at spacing h (normal +y, toward the fluid), a jittered fluid lattice above it
     // from y = 0.3 h. Every fluid particle's fit (type A, order 2) takes the wall points as the equations
     // n·∇f(x_k) = q_k (op::neumann_points, the scheme's copy_row = neumann_points): for a quadratic f with
@@ -1005,14 +1009,16 @@ TEST_SUITE("operators") {
       }
     }
     CHECK(differ == 0);
-    MESSAGE(D << "D: max derivative error " << err << " (row " << err_row << "; values read as values: " << err_plain << ")");
+    MESSAGE(D << "D: max derivative error " << err << " (row " << err_row
+              << "; values read as values: " << err_plain << ")");
     CHECK(err < 1e-7);      // exact up to rounding (|coefficients| ≤ 10, h = 0.1: second derivatives ~ 20)
     CHECK(err_row < 1e-7);  // the row's constant carries the wall data
     CHECK(err_plain > 1.0);  // so a value read at a wall point would show
     // Bad input: the vector-field calls are not defined with Neumann points and say so.
     CHECK_THROWS_AS(A.divergence(x, nl, static_cast<index_t>(x.cols() - 1), x), mpskit::error);
-    CHECK_THROWS_AS(A.compute(exec::seq{}, x, nl, op::uniform_size{h}, op::neumann_points<D>{&n, &mark, nullptr}),
-                    mpskit::error);
+    CHECK_THROWS_AS(
+        A.compute(exec::seq{}, x, nl, op::uniform_size{h}, op::neumann_points<D>{&n, &mark, nullptr}),
+        mpskit::error);
   }
 
   TEST_CASE("op: the neumann constraint repairs a wall particle whose neighbours are all on the wall") {

@@ -32,7 +32,8 @@ struct scratch : mpskit::test::scratch {
 };
 
 using sim_t = simulation<defaults<2>>;
-/// The classic defaults with Eigen's SparseLU behind incomplete-Cholesky CG (ppe/fallback.hpp), and SparseLU alone.
+/// The classic defaults with Eigen's SparseLU behind incomplete-Cholesky CG (ppe/fallback.hpp), and SparseLU
+/// alone.
 struct fallback_defaults : defaults<2> {
   using solver = ppe::with_fallback<ppe::cg_ichol, ppe::sparse_lu>;
 };
@@ -108,26 +109,30 @@ TEST_SUITE("restart") {
     steps(a, 3);
     io::save_simulation(tmp / "c.mpscp", a);
     // Into a simulation that has stepped (its list would describe other particles).
-    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", a), doctest::Contains("already stepped"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", a), doctest::Contains("already stepped"),
+                         mpskit::error);
     // Into a simulation of another spacing.
     auto p = d.cfg.params;
     p.l0 = d.cfg.l0 * 1.5;
     sim_t c(p, cases::tank_state<2>(vec<2>(d.cfg.a, 2 * d.cfg.a), vec<2>(4 * d.cfg.a, 2.5 * d.cfg.a), p.l0));
-    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", c), doctest::Contains("written with l0"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "c.mpscp", c), doctest::Contains("written with l0"),
+                         mpskit::error);
     CHECK(c.counters().steps == 0);  // untouched
     // A plain particle checkpoint without the scheme's sections.
     io::save_checkpoint(tmp / "plain.mpscp", a.state());
     sim_t e(d.cfg.params, d.initial());
-    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", e), doctest::Contains("no section 'semi_implicit.time'"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(tmp / "plain.mpscp", e),
+                         doctest::Contains("no section 'semi_implicit.time'"), mpskit::error);
     CHECK(e.time() == 0.0);
   }
 
-  TEST_CASE("restart: the classic scheme counts the fallback's solves (ppe_fallbacks), kept in the checkpoint") {
-    // ppe::with_fallback<cg_ichol, sparse_lu> in the classic stepper. With CG capped at one iteration it never
-    // converges, so every step's PPE is solved by the LU: 10 steps, 10 fallbacks, and the same pressures as
-    // SparseLU alone (both are the LU solution of the same system; tolerance 1e-9 of the largest pressure, far
-    // above round-off and far below CG's one-iteration error). Uncapped, CG converges and the count stays 0.
+  TEST_CASE(
+      "restart: the classic scheme counts the fallback's solves (ppe_fallbacks), kept in the checkpoint") {
+    // ppe::with_fallback<cg_ichol, sparse_lu> in the classic stepper. With CG capped at one iteration it
+    // never converges, so every step's PPE is solved by the LU: 10 steps, 10 fallbacks, and the same
+    // pressures as SparseLU alone (both are the LU solution of the same system; tolerance 1e-9 of the largest
+    // pressure, far above round-off and far below CG's one-iteration error). Uncapped, CG converges and the
+    // count stays 0.
     scratch tmp("fallback");
     const dam d;
     auto capped = d.cfg.params;
@@ -149,12 +154,13 @@ TEST_SUITE("restart") {
     const auto& pl = lu.state().get<field::pressure>();
     REQUIRE(pa.size() == pl.size());
     const double scale = pl.cwiseAbs().maxCoeff(), diff = (pa - pl).cwiseAbs().maxCoeff();
-    MESSAGE("after 10 steps: largest pressure " << scale << " Pa, fallback against SparseLU alone " << diff << " Pa");
+    MESSAGE("after 10 steps: largest pressure " << scale << " Pa, fallback against SparseLU alone " << diff
+                                                << " Pa");
     REQUIRE(scale > 0.0);
     CHECK(diff <= 1e-9 * scale);
 
-    // The checkpoint keeps the count; files written before it (8 counters), before ppe_breakdown_restarts (9) or
-    // before ppe_cold_restarts (10) load with the missing counters 0.
+    // The checkpoint keeps the count; files written before it (8 counters), before ppe_breakdown_restarts (9)
+    // or before ppe_cold_restarts (10) load with the missing counters 0.
     io::save_simulation(tmp / "c.mpscp", a);
     simulation<fallback_defaults> b(capped, d.initial());
     io::load_simulation(tmp / "c.mpscp", b);
@@ -166,8 +172,9 @@ TEST_SUITE("restart") {
     REQUIRE(v.size() == 11);
     CHECK(v[8] == 10);
     CHECK(v[9] == 0);  // no breakdown here
-    // Every capped solve started from the previous pressure (a warm start) except the first (from 0): the cold
-    // restart (one iteration from 0, solver_params::cold_restart) ran and failed at the other 9 before the LU.
+    // Every capped solve started from the previous pressure (a warm start) except the first (from 0): the
+    // cold restart (one iteration from 0, solver_params::cold_restart) ran and failed at the other 9 before
+    // the LU.
     CHECK(v[10] == 9);
     v[9] = 3;          // a count to read back
     v[10] = 4;
@@ -175,7 +182,8 @@ TEST_SUITE("restart") {
       io::checkpoint_sections old;
       old.add_doubles("semi_implicit.time", all.get_doubles("semi_implicit.time"));
       old.add_doubles("semi_implicit.l0", all.get_doubles("semi_implicit.l0"));
-      old.add_int64s("semi_implicit.counters", std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n)));
+      old.add_int64s("semi_implicit.counters",
+                     std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n)));
       old.add_int64s("semi_implicit.time_step", all.get_int64s("semi_implicit.time_step"));
       io::save_checkpoint(tmp / name, st, old);
       return tmp / name;
@@ -199,19 +207,22 @@ TEST_SUITE("restart") {
     CHECK(c.counters().ppe_iterations == a.counters().ppe_iterations);
     CHECK(c.counters().ppe_fallbacks == 0);
     simulation<fallback_defaults> e(capped, d.initial());
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e), doctest::Contains("holds 7 values, expected 11"),
-                         mpskit::error);
-    // A file with more counters than this library knows (written by a later one) is refused too, not truncated.
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("7.mpscp", 7), e),
+                         doctest::Contains("holds 7 values, expected 11"), mpskit::error);
+    // A file with more counters than this library knows (written by a later one) is refused too, not
+    // truncated.
     v.push_back(5);
     simulation<fallback_defaults> f(capped, d.initial());
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("12.mpscp", 12), f), doctest::Contains("holds 12 values, expected 11"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("12.mpscp", 12), f),
+                         doctest::Contains("holds 12 values, expected 11"), mpskit::error);
     CHECK(f.counters().steps == 0);  // untouched
   }
 
-  TEST_CASE("restart: the runners' measure lists and sample columns round-trip bitwise; bad lists are refused") {
-    // cases/run_pieces.hpp: what tanaka_dam_break_run.hpp, multi_diameter_channel.hpp and the tanaka_dam_break
-    // example save beside the simulation. The values are chosen not to survive a float or a rounding.
+  TEST_CASE(
+      "restart: the runners' measure lists and sample columns round-trip bitwise; bad lists are refused") {
+    // cases/run_pieces.hpp: what tanaka_dam_break_run.hpp, multi_diameter_channel.hpp and the
+    // tanaka_dam_break example save beside the simulation. The values are chosen not to survive a float or a
+    // rounding.
     double d = 0.1, wall = 1.0 / 3.0;
     std::int64_t i = -(std::int64_t{1} << 53);  // the most negative integer the list accepts
     std::size_t n = std::size_t{1} << 53;
@@ -252,8 +263,8 @@ TEST_SUITE("restart") {
     m.assign(v, 2);
     CHECK(d == 0.1);
     CHECK_THROWS_WITH_AS(m.assign(v, 1), doctest::Contains("8 values for 1 + 6 places"), mpskit::error);
-    // Refused: a section of another length, an integer a double would round, no columns, unequal columns, and a
-    // section that the reader's columns do not divide.
+    // Refused: a section of another length, an integer a double would round, no columns, unequal columns, and
+    // a section that the reader's columns do not divide.
     io::checkpoint_sections t;
     t.add_doubles("x.measures", {1.0, 2.0});
     CHECK_THROWS_WITH_AS(m.load(t, "x.measures", "test", "f.cp"),
@@ -271,7 +282,8 @@ TEST_SUITE("restart") {
     // Read back: a value that is not a whole number in the integer's range, or a flag other than 0 or 1.
     std::vector<double> bad = mv;
     bad[1] = 0.5;
-    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("0.5 read for an integer of 63 bits"), mpskit::error);
+    CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("0.5 read for an integer of 63 bits"),
+                         mpskit::error);
     bad[1] = mv[1];
     bad[2] = -1.0;
     CHECK_THROWS_WITH_AS(m.assign(bad), doctest::Contains("read for an integer of 64 bits"), mpskit::error);
@@ -287,9 +299,10 @@ TEST_SUITE("restart") {
     CHECK_THROWS_WITH_AS(cases::add_columns(t, "z", {&T, &v}), doctest::Contains("columns of 3 and 8 values"),
                          mpskit::error);
     CHECK_FALSE(t.contains("z"));
-    CHECK_THROWS_WITH_AS(cases::get_columns(s, "x.front", {}, "test", "f.cp"), doctest::Contains("no columns to read"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::get_columns(s, "x.front", {}, "test", "f.cp"),
+                         doctest::Contains("no columns to read"), mpskit::error);
     CHECK_THROWS_WITH_AS(cases::get_columns(s, "x.front", {&t2, &z2}, "test", "f.cp"),
-                         doctest::Contains("section 'x.front' holds 9 values, not a multiple of 2"), mpskit::error);
+                         doctest::Contains("section 'x.front' holds 9 values, not a multiple of 2"),
+                         mpskit::error);
   }
 }

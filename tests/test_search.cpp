@@ -42,8 +42,8 @@ points<D> random_cloud(index_t n, double box, std::mt19937_64& rng) {
 
 // The oracle: all j ≠ i with |x_ij| < R_ij (minimum image on periodic axes), by mpskit's rule.
 template <int D, class R>
-std::vector<std::vector<index_t>> brute(const points<D>& x, const R& radius, radius_rule rule, const domain<D>& dom,
-                                        double grow = 1.0) {
+std::vector<std::vector<index_t>> brute(const points<D>& x, const R& radius, radius_rule rule,
+                                        const domain<D>& dom, double grow = 1.0) {
   const index_t n = x.cols();
   std::vector<std::vector<index_t>> out(static_cast<std::size_t>(n));
   for (index_t i = 0; i < n; ++i)
@@ -58,8 +58,8 @@ std::vector<std::vector<index_t>> brute(const points<D>& x, const R& radius, rad
 }
 
 template <int D, class R>
-std::vector<std::vector<index_t>> from_list(const neighbour_list<D>& list, const points<D>& x, const R& radius,
-                                            radius_rule rule) {
+std::vector<std::vector<index_t>> from_list(const neighbour_list<D>& list, const points<D>& x,
+                                            const R& radius, radius_rule rule) {
   std::vector<std::vector<index_t>> out(static_cast<std::size_t>(x.cols()));
   for (index_t i = 0; i < x.cols(); ++i) {
     auto& row = out[static_cast<std::size_t>(i)];
@@ -115,8 +115,8 @@ TEST_SUITE("search") {
       CAPTURE(skin);
       check_all_rules<D>(lattice<D>(D == 2 ? 30 : 10, l0, 0.0, rng), uniform_radius{3.1 * l0}, {}, skin);
       check_all_rules<D>(lattice<D>(D == 2 ? 30 : 10, l0, 0.1, rng), uniform_radius{2.1 * l0}, {}, skin);
-      check_all_rules<D>(random_cloud<D>(D == 2 ? 900 : 1000, D == 2 ? 0.3 : 0.1, rng), uniform_radius{3.1 * l0},
-                         {}, skin);
+      check_all_rules<D>(random_cloud<D>(D == 2 ? 900 : 1000, D == 2 ? 0.3 : 0.1, rng),
+                         uniform_radius{3.1 * l0}, {}, skin);
     }
   }
 
@@ -138,7 +138,8 @@ TEST_SUITE("search") {
     }
   }
 
-  TEST_CASE_TEMPLATE("search: periodic axes use the minimum image and record shift ids", Dim, dim<2>, dim<3>) {
+  TEST_CASE_TEMPLATE("search: periodic axes use the minimum image and record shift ids", Dim, dim<2>,
+                     dim<3>) {
     constexpr int D = Dim::value;
     std::mt19937_64 rng(seed + 2);
     const double l0 = 0.01;
@@ -212,7 +213,8 @@ TEST_SUITE("search") {
     bool moved_with_ids = true;
     for (index_t k = 0; k < s.n_real(); ++k)
       moved_with_ids &= s.x().col(k) == before.col(order[static_cast<std::size_t>(k)]) &&
-                        s.ids()[static_cast<std::size_t>(k)] == static_cast<particle_id>(order[static_cast<std::size_t>(k)]);
+                        s.ids()[static_cast<std::size_t>(k)] ==
+                            static_cast<particle_id>(order[static_cast<std::size_t>(k)]);
     CHECK(moved_with_ids);
     list.build(exec::seq{}, s.x(), uniform_radius{0.03});
     index_t unsorted = 0;
@@ -254,8 +256,8 @@ TEST_SUITE("bad_input") {
     x(0, 1) = 1.0;
     x(0, 2) = 2.0;
     neighbour_list<2> list;
-    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, points<2>(2, 0), uniform_radius{1.0}), doctest::Contains("empty"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, points<2>(2, 0), uniform_radius{1.0}),
+                         doctest::Contains("empty"), mpskit::error);
     CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{0.0}), doctest::Contains("radius R = 0"),
                          mpskit::error);
     CHECK_THROWS_AS(list.build(exec::seq{}, x, uniform_radius{-1.0}), mpskit::error);
@@ -265,10 +267,10 @@ TEST_SUITE("bad_input") {
                          doctest::Contains("radius of particle 1"), mpskit::error);
     Eigen::VectorXd L2(2);
     L2 << 1.0, 1.0;
-    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, per_particle_radius{&L2, 1.0}), doctest::Contains("2 entries"),
-                         mpskit::error);
-    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}, {-0.1, {}}), doctest::Contains("skin"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, per_particle_radius{&L2, 1.0}),
+                         doctest::Contains("2 entries"), mpskit::error);
+    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}, {-0.1, {}}),
+                         doctest::Contains("skin"), mpskit::error);
     x(1, 2) = std::nan("");
     CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}), doctest::Contains("particle 2"),
                          mpskit::error);
@@ -277,13 +279,14 @@ TEST_SUITE("bad_input") {
     dom.periodic = {true, false};
     dom.lo << 0.0, 0.0;
     dom.hi << 1.5, 0.0;
-    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}, {0.0, dom}), doctest::Contains("period"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}, {0.0, dom}),
+                         doctest::Contains("period"), mpskit::error);
     dom.hi << -1.0, 0.0;
     CHECK_THROWS_AS(list.build(exec::seq{}, x, uniform_radius{0.1}, {0.0, dom}), mpskit::error);
     // One particle very far away: refused rather than a huge grid.
     x(0, 2) = 1e12;
-    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}), doctest::Contains("cells"), mpskit::error);
+    CHECK_THROWS_WITH_AS(list.build(exec::seq{}, x, uniform_radius{1.0}), doctest::Contains("cells"),
+                         mpskit::error);
     CHECK_THROWS_AS(kdtree<2>(points<2>(2, 0)), mpskit::error);
   }
 }

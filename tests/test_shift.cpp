@@ -63,7 +63,8 @@ search::domain<D> periodic_box(int m, int m_last, std::array<bool, D> axes) {
 }
 
 template <int D>
-search::neighbour_list<D> build_list(const points<D>& x, const Eigen::VectorXd& L, const search::domain<D>& dom = {}) {
+search::neighbour_list<D> build_list(const points<D>& x, const Eigen::VectorXd& L,
+                                     const search::domain<D>& dom = {}) {
   search::neighbour_list<D> nl;
   nl.build(exec::seq{}, x, search::per_particle_radius{&L, 3.1}, search::build_options<D>{0.0, dom});
   return nl;
@@ -91,11 +92,12 @@ struct shift_case {
   }
   void build() { nl = build_list<D>(x, L, dom); }
   template <class E = exec::seq, class P = all_participate>
-  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {}, const P& part = {},
-                                      const points<D>* n_wall = nullptr, const points<D>* n_wall2 = nullptr,
+  regularize::tanaka_shift_report run(const regularize::tanaka_shift_params& p = {}, E e = {},
+                                      const P& part = {}, const points<D>* n_wall = nullptr,
+                                      const points<D>* n_wall2 = nullptr,
                                       const std::vector<std::uint8_t>* penalty_only = nullptr) {
-    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx, n_wall,
-                                                    n_wall2, penalty_only);
+    return regularize::tanaka_shift_displacement<D>(e, x, L, nl, part, grad_c, n, tangential, active, p, dx,
+                                                    n_wall, n_wall2, penalty_only);
   }
 };
 
@@ -143,14 +145,15 @@ points<D> literal_shift(const shift_case<D>& c, const P& part, const regularize:
 }
 
 
-/// The jittered 10 × 10 lattice of the eq. 91 tests after one shift (seed test_seed() + offset), and the linear
-/// velocity field u = A x the tests put on it.
+/// The jittered 10 × 10 lattice of the eq. 91 tests after one shift (seed test_seed() + offset), and the
+/// linear velocity field u = A x the tests put on it.
 struct shifted_linear {
   std::uint64_t seed;
   std::mt19937_64 rng;
   shift_case<2> c;
   mat<2> A;
-  explicit shifted_linear(std::uint64_t offset) : seed(test_seed() + offset), rng(seed), c(lattice<2>(10, 10, 0.2, rng)) {
+  explicit shifted_linear(std::uint64_t offset)
+      : seed(test_seed() + offset), rng(seed), c(lattice<2>(10, 10, 0.2, rng)) {
     c.build();
     c.run();
     A << 0.3, -1.2, 2.0, 0.7;
@@ -160,8 +163,8 @@ struct shifted_linear {
 }  // namespace
 
 TEST_SUITE("tanaka_shift") {
-  TEST_CASE_TEMPLATE("regularize: tanaka shift is zero on a perfect periodic lattice", Dim, std::integral_constant<int, 2>,
-                     std::integral_constant<int, 3>) {
+  TEST_CASE_TEMPLATE("regularize: tanaka shift is zero on a perfect periodic lattice", Dim,
+                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
     constexpr int D = Dim::value;
     const int m = D == 2 ? 12 : 8;  // period ≥ 8 L0 > 2 R = 6.2 L0: one image per neighbour
     std::mt19937_64 rng(0);
@@ -185,8 +188,9 @@ TEST_SUITE("tanaka_shift") {
     CHECK(worst <= 1e-14);
   }
 
-  TEST_CASE_TEMPLATE("regularize: tanaka shift sends a displaced particle back toward its site, limited to alpha_S L",
-                     Dim, std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+  TEST_CASE_TEMPLATE(
+      "regularize: tanaka shift sends a displaced particle back toward its site, limited to alpha_S L", Dim,
+      std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
     constexpr int D = Dim::value;
     const int m = D == 2 ? 12 : 8;
     std::mt19937_64 rng(0);
@@ -225,7 +229,8 @@ TEST_SUITE("tanaka_shift") {
     }
   }
 
-  TEST_CASE("regularize: tanaka shift pushes an overlapping pair apart along its line (penalty, eqs. 96-97)") {
+  TEST_CASE(
+      "regularize: tanaka shift pushes an overlapping pair apart along its line (penalty, eqs. 96-97)") {
     const double ang = 0.37;
     const vec<2> e(std::cos(ang), std::sin(ang));
     points<2> x(2, 2);
@@ -259,10 +264,11 @@ TEST_SUITE("tanaka_shift") {
   }
 
   TEST_CASE("regularize: tanaka shift with penalty_only: an excluded particle enters eq. 96 only") {
-    // lsmps_params::shift_isolated_penalty (deviation 18): particle 1 does not participate (an isolated one) and
-    // sits 0.5 L from particle 0, particle 2 participates 2 L away on the other side. With penalty_only[1] set,
-    // particle 0's displacement is the one without particle 1 plus eq. 96's per-pair push away from it,
-    // −w ε L x_01/r (exact to rounding: eq. 100 is switched off); eq. 94 does not see particle 1.
+    // lsmps_params::shift_isolated_penalty (deviation 18): particle 1 does not participate (an isolated one)
+    // and sits 0.5 L from particle 0, particle 2 participates 2 L away on the other side. With
+    // penalty_only[1] set, particle 0's displacement is the one without particle 1 plus eq. 96's per-pair
+    // push away from it, −w ε L x_01/r (exact to rounding: eq. 100 is switched off); eq. 94 does not see
+    // particle 1.
     const double ang = 0.37;
     const vec<2> e(std::cos(ang), std::sin(ang));
     points<2> x(2, 3);
@@ -293,9 +299,10 @@ TEST_SUITE("tanaka_shift") {
     c.run(p, exec::seq{}, all_participate{});
     CHECK((c.dx.array() == all.array()).all());
     only.resize(2);
-    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, part, nullptr, nullptr, &only), doctest::Contains("penalty_only"),
-                         mpskit::error);
-    // The printed direction −∇c does not push i away from j: refused. A row beyond active.size() (a ghost) too.
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, part, nullptr, nullptr, &only),
+                         doctest::Contains("penalty_only"), mpskit::error);
+    // The printed direction −∇c does not push i away from j: refused. A row beyond active.size() (a ghost)
+    // too.
     only.assign(3, 0);
     only[1] = 1;
     p.penalty = regularize::penalty_direction::concentration_gradient;
@@ -339,8 +346,8 @@ TEST_SUITE("tanaka_shift") {
     CHECK(moved_top > 0);        // jittered: the tangential part is not zero
   }
 
-  TEST_CASE_TEMPLATE("regularize: tanaka shift with a second (wall) normal removes both normal components", Dim,
-                     std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+  TEST_CASE_TEMPLATE("regularize: tanaka shift with a second (wall) normal removes both normal components",
+                     Dim, std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
     constexpr int D = Dim::value;
     const std::uint64_t seed = test_seed() + 6;
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
@@ -379,14 +386,15 @@ TEST_SUITE("tanaka_shift") {
     if (D == 2) CHECK(size <= 1e-14 * L0);
     if (D == 3) CHECK(size > 1e-3 * L0);  // the component along n × n_wall survives
     points<D> bad(D, 3);
-    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &bad), doctest::Contains("n_wall"), mpskit::error);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &bad), doctest::Contains("n_wall"),
+                         mpskit::error);
   }
 
   TEST_CASE("regularize: tanaka shift with two wall normals (a 3D edge): only the edge direction survives") {
-    // lsmps_params::shift_second_wall: eq. 99 along both walls of an edge. Interior particles (n = 0) with the
-    // walls x = 0 and y = 0: δx must be along z exactly (both components removed); with a random n as well,
-    // nothing survives (three independent directions in 3D). Random unit normals for the second part, so the
-    // Gram–Schmidt steps matter.
+    // lsmps_params::shift_second_wall: eq. 99 along both walls of an edge. Interior particles (n = 0) with
+    // the walls x = 0 and y = 0: δx must be along z exactly (both components removed); with a random n as
+    // well, nothing survives (three independent directions in 3D). Random unit normals for the second part,
+    // so the Gram–Schmidt steps matter.
     constexpr int D = 3;
     const std::uint64_t seed = test_seed() + 7;
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
@@ -423,12 +431,15 @@ TEST_SUITE("tanaka_shift") {
     for (index_t i = 0; i < c.x.cols(); ++i) size = std::max(size, c.dx.col(i).norm());
     CHECK(size <= 1e-13 * L0);  // three independent constraints in 3D: rounding only
     points<D> bad(D, 3);
-    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &w1, &bad), doctest::Contains("n_wall2"), mpskit::error);
+    CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, &w1, &bad), doctest::Contains("n_wall2"),
+                         mpskit::error);
     CHECK_THROWS_WITH_AS(c.run(p, exec::seq{}, all_participate{}, nullptr, &w2), doctest::Contains("n_wall2"),
                          mpskit::error);
   }
 
-  TEST_CASE("regularize: tanaka shift at a contact line: the printed eq. 99 freezes an overlapping pair, wall_only separates it") {
+  TEST_CASE(
+      "regularize: tanaka shift at a contact line: the printed eq. 99 freezes an overlapping pair, wall_only "
+      "separates it") {
     // Wall x = 0 (normal +x into the fluid), free surface above (normal +y): in 2D the two normals of eq. 99
     // remove every direction, so a pair at the contact line cannot be pushed apart (the failure seen in
     // Tanaka's dam break at T ≈ 1.44, docs/regularize.md). wall_only keeps the overlap penalty δx** and
@@ -465,7 +476,9 @@ TEST_SUITE("tanaka_shift") {
     CHECK((xij + c.dx.col(1) - c.dx.col(0)).norm() > r + 0.5 * k);  // the pair separates
   }
 
-  TEST_CASE("regularize: tanaka shift wall_only: a particle overlapping the wall is pushed off it, one at L/2 is not") {
+  TEST_CASE(
+      "regularize: tanaka shift wall_only: a particle overlapping the wall is pushed off it, one at L/2 is "
+      "not") {
     // Row 0: a fluid particle beside the wall x = 0; row 1 (a ghost, j >= active.size()): its imaginary copy
     // on the wall. At L/2 (the lattice at rest) the copy is outside (1 − α_p) L/2 = 0.45 L: no push in either
     // form. At 0.2 L the printed eq. 99 removes the copy's push (tangential only); wall_only keeps it.
@@ -541,7 +554,8 @@ TEST_SUITE("tanaka_shift") {
       const search::support<search::uniform_radius> near{{1.5 * L0}, search::radius_rule::own};
       for (index_t i = 0; i < c.x.cols(); ++i) {
         double nn = 1e300;
-        c.nl.for_each_neighbour(c.x, i, near, [&](index_t, const vec<2>&, double r2) { nn = std::min(nn, std::sqrt(r2)); });
+        c.nl.for_each_neighbour(c.x, i, near,
+                                [&](index_t, const vec<2>&, double r2) { nn = std::min(nn, std::sqrt(r2)); });
         dmin = std::min(dmin, nn);
         s += nn;
         s2 += nn * nn;
@@ -587,10 +601,12 @@ TEST_SUITE("tanaka_shift") {
     CHECK((x - c.x - c.dx).cwiseAbs().maxCoeff() <= 1e-17);
   }
 
-  TEST_CASE("regularize: limit_to_neighbour_range keeps eq. 91 exact inside the data and stops its extrapolation") {
-    // (1) The linear field of the case above on a jittered lattice, every interior particle shifted by at most
-    // α_S L = 0.01 L: x_i + δx_i lies well inside its neighbours' hull, so A (x_i + δx_i) lies inside the range of
-    // their values and the limiter leaves eq. 91 exact (rounding: 1e-15) and counts nothing there.
+  TEST_CASE(
+      "regularize: limit_to_neighbour_range keeps eq. 91 exact inside the data and stops its extrapolation") {
+    // (1) The linear field of the case above on a jittered lattice, every interior particle shifted by at
+    //     most
+    // α_S L = 0.01 L: x_i + δx_i lies well inside its neighbours' hull, so A (x_i + δx_i) lies inside the
+    // range of their values and the limiter leaves eq. 91 exact (rounding: 1e-15) and counts nothing there.
     const shifted_linear s(3);
     MESSAGE("seed = " << s.seed << " (MPSKIT_SEED)");
     const shift_case<2>& c = s.c;
@@ -603,7 +619,8 @@ TEST_SUITE("tanaka_shift") {
       for (int a = 0; a < 2; ++a)
         for (const double sgn : {-1.0, 1.0}) {
           bool any = false;
-          for (const auto jj : nb) any = any || sgn * (c.x(a, static_cast<index_t>(jj)) - c.x(a, i)) > 0.5 * c.L[i];
+          for (const auto jj : nb)
+            any = any || sgn * (c.x(a, static_cast<index_t>(jj)) - c.x(a, i)) > 0.5 * c.L[i];
           inside = inside && any;
         }
       if (!inside) continue;
@@ -616,10 +633,11 @@ TEST_SUITE("tanaka_shift") {
     CHECK(clipped_interior == 0);
 
     // (2) The 2 mm dam-break failure in miniature (docs/lsmps_scheme.md "The shifted velocity's limiter"): a
-    // particle at height y = 0.05 L over a floor moving at 10 m/s along it, its neighbours its copy on the floor
-    // (wall velocity 0) and one particle 2 L away at 9 m/s. The one-sided gradient is ∂u/∂y = (10 − 0)/y, and a
-    // shift δy = α_S L = 0.01 L away from the floor adds 10 · 0.01/0.05 = 2 m/s (20 %) per step. Clipped to the
-    // range [0, 10] of the data: unchanged, counted. A shift toward the slower neighbour is inside the range: kept.
+    // particle at height y = 0.05 L over a floor moving at 10 m/s along it, its neighbours its copy on the
+    // floor (wall velocity 0) and one particle 2 L away at 9 m/s. The one-sided gradient is ∂u/∂y = (10
+    // − 0)/y, and a shift δy = α_S L = 0.01 L away from the floor adds 10 · 0.01/0.05 = 2 m/s (20 %) per
+    // step. Clipped to the range [0, 10] of the data: unchanged, counted. A shift toward the slower neighbour
+    // is inside the range: kept.
     points<2> uw(2, 3);
     uw << 10.0, 0.0, 9.0, 0.0, 0.0, 0.0;
     const std::vector<index_t> nbw{1, 2};
@@ -761,13 +779,15 @@ void check_polygon_tank(const cases::polygon_tank_config& cfg) {
   // layer) and cells crossing it are kept. Bound: one layer, |N L^D − V(H)| ≤ L × wetted incline.
   const double V = t.volume(t.H), NV = static_cast<double>(t.size()) * std::pow(L, D);
   const double bound = L * t.incline_wetted(t.H);
-  MESSAGE("N L^D = " << NV << ", V(H) = " << V << ", |diff| / (L x wetted incline) = " << std::abs(NV - V) / bound);
+  MESSAGE("N L^D = " << NV << ", V(H) = " << V
+                     << ", |diff| / (L x wetted incline) = " << std::abs(NV - V) / bound);
   CHECK(std::abs(NV - V) <= bound);
   // z_s solves V(z_s) = N L^D; so it is below H by at most one layer normal to the incline.
   CHECK(t.volume(t.surface_height) == doctest::Approx(NV).epsilon(1e-12));
   CHECK(t.surface_height <= t.H + 1e-12);
   CHECK(t.surface_height >= t.H - L);
-  CHECK(t.hydrostatic_pressure(t.corner(), 1000.0, 9.81) == doctest::Approx(1000.0 * 9.81 * t.surface_height));
+  CHECK(t.hydrostatic_pressure(t.corner(), 1000.0, 9.81) ==
+        doctest::Approx(1000.0 * 9.81 * t.surface_height));
   // Normals point into the fluid: a point just off each element's centroid along its normal is inside
   // the analytic tank, and just behind it is outside.
   bool into = true;
@@ -817,8 +837,9 @@ TEST_SUITE("cases_lsmps") {
     check_polygon_tank<2>(fine);
   }
 
-  TEST_CASE_TEMPLATE("cases: tanaka shift with imaginary copies keeps polygon-tank particles >= L/2 from the walls",
-                     Dim, std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
+  TEST_CASE_TEMPLATE(
+      "cases: tanaka shift with imaginary copies keeps polygon-tank particles >= L/2 from the walls", Dim,
+      std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
     constexpr int D = Dim::value;
     const cases::polygon_tank<D> t = cases::make_polygon_tank<D>({});
     const index_t nr = t.size();
@@ -832,7 +853,8 @@ TEST_SUITE("cases_lsmps") {
       Eigen::VectorXd Lall = Eigen::VectorXd::Constant(nr, L);
       points<D> xa = x;
       std::vector<wall::imaginary_copy<D>> copies;
-      wall::make_imaginary<D>(xa, Lall, nr, [](index_t) { return true; }, t.walls, wall::imaginary_params{}, copies);
+      wall::make_imaginary<D>(
+          xa, Lall, nr, [](index_t) { return true; }, t.walls, wall::imaginary_params{}, copies);
       wall::write_ghosts<D>(copies, nr, xa, Lall);
       search::neighbour_list<D> nl;
       nl.build(exec::seq{}, xa, search::per_particle_radius{&Lall, 3.1}, search::build_options<D>{});
@@ -854,8 +876,8 @@ TEST_SUITE("cases_lsmps") {
           tang[static_cast<std::size_t>(i)] = 1;
         }
       const regularize::tanaka_shift_report r = regularize::tanaka_shift_displacement<D>(
-          exec::seq{}, xa, Lall, nl, [](index_t) { return true; }, gc, n, tang, act, regularize::tanaka_shift_params{},
-          dx, &nw);
+          exec::seq{}, xa, Lall, nl, [](index_t) { return true; }, gc, n, tang, act,
+          regularize::tanaka_shift_params{}, dx, &nw);
       moved = std::max(moved, r.moved);
       x += dx;
       smin = std::min(smin, min_signed_distance<D>(t.walls, x));
@@ -898,8 +920,8 @@ TEST_SUITE("cases_lsmps") {
       // Column area 0.1 × 0.2 m²: left wall and floor are lattice-aligned; the right and top free
       // faces lose at most one layer when L does not divide 0.1 or 0.2. Bound: L × (0.1 + 0.2).
       const double NV = static_cast<double>(d.size()) * L * L, V = 0.1 * 0.2;
-      MESSAGE("L = " << L << ": " << d.size() << " particles (paper, L = 1 mm: " << cases::tanaka_dam_break::paper_particles
-                     << "), N L^2 / V = " << NV / V);
+      MESSAGE("L = " << L << ": " << d.size() << " particles (paper, L = 1 mm: "
+                     << cases::tanaka_dam_break::paper_particles << "), N L^2 / V = " << NV / V);
       CHECK(std::abs(NV - V) <= L * (0.1 + 0.2));
       if (L == 0.001) CHECK(d.size() == 100 * 200);  // L divides both sides
       bool in_column = true;
@@ -921,7 +943,8 @@ TEST_SUITE("cases_lsmps") {
       const double h = d.front(d.x, diam, d.size(), all);
       CHECK(h <= d.h0() + 1e-12);
       CHECK(h > d.h0() - L);
-      if (L == 0.001 || L == 0.0025) CHECK(d.front_star(d.x, diam, d.size(), all) == doctest::Approx(1.0).epsilon(1e-12));
+      if (L == 0.001 || L == 0.0025)
+        CHECK(d.front_star(d.x, diam, d.size(), all) == doctest::Approx(1.0).epsilon(1e-12));
       // Only counted particles define the front; none counted gives NaN.
       const index_t far = [&] {
         index_t k = 0;
@@ -953,14 +976,15 @@ TEST_SUITE("cases_lsmps") {
     CHECK(d.walls.signed_distance(vec<2>(0.0, 0.004)) < 0.0);
     CHECK(d.walls.signed_distance(vec<2>(0.1, 0.004)) == doctest::Approx(0.004).epsilon(1e-12));
     // Without an obstacle there is no block probe; half an obstacle and a block in the column are refused.
-    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break({.L = 0.01}).obstacle_probe(), doctest::Contains("no obstacle"),
-                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break({.L = 0.01}).obstacle_probe(),
+                         doctest::Contains("no obstacle"), mpskit::error);
     cases::tanaka_dam_break_config c = cases::tanaka_obstacle_config(0.01);
     c.obstacle_height = 0.0;
     CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("both"), mpskit::error);
     c = cases::tanaka_obstacle_config(0.01);
     c.obstacle_centre = -0.1;
-    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("inside the column"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::make_tanaka_dam_break(c), doctest::Contains("inside the column"),
+                         mpskit::error);
   }
 
   TEST_CASE("cases: Tanaka dam break refuses bad configurations") {

@@ -64,7 +64,8 @@ struct collision_archetype {
     double max_dv = 0.0;
   };
   template <Execution E, int D, class P, class M>
-  report apply(E, points<D>&, points<D>&, const search::neighbour_list<D>&, const P&, const M&, double) const {
+  report apply(E, points<D>&, points<D>&, const search::neighbour_list<D>&, const P&, const M&,
+               double) const {
     return {};
   }
 };
@@ -591,7 +592,9 @@ TEST_SUITE("regularize") {
     CHECK(dP.norm() <= 1e-14 * scale);
   }
 
-  TEST_CASE("regularize: sized collisions: contact at alpha1 L_ij, restitution, momentum sum V u for unequal volumes") {
+  TEST_CASE(
+      "regularize: sized collisions: contact at alpha1 L_ij, restitution, momentum sum V u for unequal "
+      "volumes") {
     const std::uint64_t seed = test_seed() + 12;
     MESSAGE("seed = " << seed);
     std::mt19937_64 rng(seed);
@@ -605,7 +608,8 @@ TEST_SUITE("regularize") {
       points<2> x(2, 2), u(2, 2), du;
       x.col(0).setZero();
       x.col(1) << U(rng), U(rng);
-      x.col(1) *= 0.24 * (L0 + L1) / x.col(1).norm() * (0.5 + 0.5 * std::abs(U(rng)));  // |r| ≤ 0.24 (L0 + L1) < α1 L_01
+      x.col(1) *= 0.24 * (L0 + L1) / x.col(1).norm() *
+                  (0.5 + 0.5 * std::abs(U(rng)));  // |r| ≤ 0.24 (L0 + L1) < α1 L_01
       u.col(0) << U(rng), U(rng);
       u.col(1) << U(rng), U(rng);
       search::neighbour_list<2> nl;
@@ -630,7 +634,8 @@ TEST_SUITE("regularize") {
       CHECK(du.col(0).norm() * V[0] == doctest::Approx(du.col(1).norm() * V[1]).epsilon(1e-12));
     }
     CHECK(tested > 50);
-    // The contact distance is α1 (L_i + L_j)/2: an approaching pair just inside collides, just outside does not.
+    // The contact distance is α1 (L_i + L_j)/2: an approaching pair just inside collides, just outside does
+    // not.
     const Eigen::VectorXd L = (Eigen::VectorXd(2) << l0, 0.2 * l0).finished(), V = L.array().square();
     const double contact = 0.5 * 0.5 * 1.2 * l0;
     for (const double f : {0.999, 1.001}) {
@@ -643,8 +648,8 @@ TEST_SUITE("regularize") {
           exec::seq{}, x, u, L, V, nl, regularize::every_particle{}, regularize::every_particle{}, p, du);
       CHECK(rep.pairs == (f < 1.0 ? 2 : 0));
     }
-    // Against an immovable partner (a wall copy): the movable particle bounces with restitution, the partner keeps
-    // its velocity, whatever the volumes.
+    // Against an immovable partner (a wall copy): the movable particle bounces with restitution, the partner
+    // keeps its velocity, whatever the volumes.
     points<2> x(2, 2), u(2, 2), du;
     x << 0.0, 0.2 * l0, 0.0, 0.1 * l0;
     u << 1.0, 0.3, 0.5, 0.0;
@@ -660,12 +665,13 @@ TEST_SUITE("regularize") {
     // Bad numbers and sizes that do not match x are refused.
     CHECK_THROWS_AS(regularize::sized_collision_params({-0.1, 0.2}).validate(), mpskit::error);
     CHECK_THROWS_AS(regularize::sized_collision_params({0.5, 1.5}).validate(), mpskit::error);
-    CHECK_THROWS_WITH_AS(regularize::sized_collisions(exec::seq{}, x, u, L, Eigen::VectorXd(V.head(1)), nl,
-                                                      regularize::every_particle{}, regularize::every_particle{}, p, du),
-                         doctest::Contains("V 1 values"), mpskit::error);
+    CHECK_THROWS_WITH_AS(
+        regularize::sized_collisions(exec::seq{}, x, u, L, Eigen::VectorXd(V.head(1)), nl,
+                                     regularize::every_particle{}, regularize::every_particle{}, p, du),
+        doctest::Contains("V 1 values"), mpskit::error);
     CHECK_THROWS_AS(regularize::sized_collisions(exec::seq{}, x, u, L, V, nl, regularize::every_particle{},
-                                                 regularize::every_particle{}, regularize::sized_collision_params{2.0, 0.2},
-                                                 du),
+                                                 regularize::every_particle{},
+                                                 regularize::sized_collision_params{2.0, 0.2}, du),
                     mpskit::error);
   }
 

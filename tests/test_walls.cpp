@@ -191,14 +191,16 @@ TEST_SUITE("imaginary") {
     // fluid outside a circular obstacle: σ = −1/R, L' = L/(1 + r/R)
     const polygon_set<2> o(geometry::circle(vec<2>(0, 0), R, n, geometry::fluid_side::outside));
     const double rho_o = R * std::cos(phi) + r;  // r from the segment
-    const std::vector<wall::imaginary_copy<2>> co = copies_of<2>(vec<2>(rho_o * std::cos(phi), rho_o * std::sin(phi)), L, o);
+    const std::vector<wall::imaginary_copy<2>> co =
+        copies_of<2>(vec<2>(rho_o * std::cos(phi), rho_o * std::sin(phi)), L, o);
     REQUIRE(co.size() == 1);
     CHECK(std::abs(co[0].L / (L / (1.0 + r / R)) - 1.0) < 3e-5);
   }
 
   TEST_CASE("walls: inside a sphere (icosphere), one copy per particle and L' = L / (1 - r/R)") {
     const double L = 0.01, R = 10 * L;
-    const polygon_set<3> w(geometry::sphere(vec<3>(0, 0, 0), R, 4, geometry::fluid_side::inside));  // 5120 triangles
+    const polygon_set<3> w(
+        geometry::sphere(vec<3>(0, 0, 0), R, 4, geometry::fluid_side::inside));  // 5120 triangles
     const std::uint64_t seed = test_seed();
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
     std::mt19937_64 rng(seed + 2);
@@ -228,8 +230,8 @@ TEST_SUITE("imaginary") {
       depth_max = std::max(depth_max, R - std::abs(w.element_normal(e).dot(w.element(e).col(0))));
     MESSAGE("deepest triangle plane: " << depth_max / L << " L");
     CHECK(worst_sphere < 1.05 * depth_max / R / (0.91 * 0.91));
-    MESSAGE("max relative L' error: " << worst_exact << " (eq. 76 with the triangle distance), " << worst_sphere
-                                      << " (true sphere)");
+    MESSAGE("max relative L' error: " << worst_exact << " (eq. 76 with the triangle distance), "
+                                      << worst_sphere << " (true sphere)");
   }
 
   TEST_CASE("walls: 1 - r sigma below small_ratio gives L' = 2 L and a counted event") {
@@ -335,7 +337,8 @@ TEST_SUITE("imaginary") {
   TEST_CASE("walls: a moving wall gives the copy its velocity") {
     const double L = 0.01;
     const vec<2> U(0.3, -0.2);
-    polygon_set<2> w(geometry::tank(vec<2>(0, 0), vec<2>(1, 1)), {}, geometry::prescribed_motion<2>::translation(U));
+    polygon_set<2> w(geometry::tank(vec<2>(0, 0), vec<2>(1, 1)), {},
+                     geometry::prescribed_motion<2>::translation(U));
     w.move_to(0.5);  // floor now at y = −0.1
     const std::vector<wall::imaginary_copy<2>> c = copies_of<2>(vec<2>(0.5, -0.1 + 0.3 * L), L, w);
     REQUIRE(c.size() == 1);
@@ -379,9 +382,11 @@ TEST_SUITE("imaginary") {
         same = same && a[k].parent == o->parent && a[k].element == o->element && a[k].set == o->set &&
                a[k].x == o->x && a[k].normal == o->normal && a[k].L == o->L && a[k].weights == o->weights;
       if (k > 0)
-        ordered = ordered && (a[k - 1].parent < a[k].parent ||
-                              (a[k - 1].parent == a[k].parent &&
-                               (a[k - 1].set < a[k].set || (a[k - 1].set == a[k].set && a[k - 1].element < a[k].element))));
+        ordered =
+            ordered &&
+            (a[k - 1].parent < a[k].parent ||
+             (a[k - 1].parent == a[k].parent &&
+              (a[k - 1].set < a[k].set || (a[k - 1].set == a[k].set && a[k - 1].element < a[k].element))));
       odd = odd || a[k].parent % 2 == 1;
       both_sets[a[k].set] = true;
       // every copy lies on its element of its set, within α_w L of its parent
@@ -399,7 +404,8 @@ TEST_SUITE("imaginary") {
     index_t missed = 0;
     for (index_t i = 0; i < n; i += 2) {
       const geometry::collection_point<2> q = walls.query(x.col(i), L);
-      if (q.found() && q.distance < L && q.signed_distance >= 0.0 && !has[static_cast<std::size_t>(i)]) ++missed;
+      if (q.found() && q.distance < L && q.signed_distance >= 0.0 && !has[static_cast<std::size_t>(i)])
+        ++missed;
     }
     CHECK(missed == 0);
   }
@@ -466,13 +472,15 @@ TEST_SUITE("crossing_guard") {
   TEST_CASE("walls: guard on a moving wall keeps the wall's normal velocity") {
     const double L = 0.01, eps = 0.01;
     const vec<2> U(0.0, 1.0);
-    polygon_set<2> w(geometry::tank(vec<2>(0, 0), vec<2>(1, 1)), {}, geometry::prescribed_motion<2>::translation(U));
+    polygon_set<2> w(geometry::tank(vec<2>(0, 0), vec<2>(1, 1)), {},
+                     geometry::prescribed_motion<2>::translation(U));
     w.move_to(0.01);  // floor at y = 0.01
     points<2> x0(2, 1), x1(2, 1), u(2, 1);
     x0 << 0.5, 0.02;
     x1 << 0.5, 0.0;
     u << 0.5, -2.0;
-    CHECK(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w, wall::guard_params{eps}) == 1);
+    CHECK(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w,
+                                   wall::guard_params{eps}) == 1);
     CHECK(std::abs(x1(1, 0) - (0.01 + eps * L)) < 1e-15);
     CHECK(u(0, 0) == 0.5);
     CHECK(u(1, 0) == 1.0);  // (u − v_w)·n = 0
@@ -487,9 +495,10 @@ TEST_SUITE("crossing_guard") {
     points<2> x0(2, 1), x1(2, 1), u = points<2>::Zero(2, 1);
     x0 << 0.5, 0.01;
     x1 = x0;
-    CHECK(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w, wall::guard_params{eps}) == 0);
-    CHECK(wall::guard_crossings_moving<2>(exec::seq{}, x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w, before,
-                                          wall::guard_params{eps}) == 1);
+    CHECK(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w,
+                                   wall::guard_params{eps}) == 0);
+    CHECK(wall::guard_crossings_moving<2>(exec::seq{}, x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w,
+                                          before, wall::guard_params{eps}) == 1);
     CHECK(std::abs(x1(1, 0) - (0.02 + eps * L)) < 1e-15);
     CHECK(std::abs(u(1, 0) - 1.0) < 1e-15);
   }
@@ -526,7 +535,8 @@ TEST_SUITE("crossing_guard") {
     x0 << 0.0, 0.2 * L;
     x1 << 0.0, -0.2 * L;  // through the apex
     u << 0.0, -1.0;
-    CHECK(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w, wall::guard_params{eps}) == 1);
+    CHECK(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, L), 1, w,
+                                   wall::guard_params{eps}) == 1);
     CHECK(x1.col(0) == x0.col(0));
     CHECK(w.signed_distance(x1.col(0)) > 0.0);
   }
@@ -689,9 +699,9 @@ TEST_SUITE("thin_walls") {
                      std::integral_constant<int, 2>, std::integral_constant<int, 3>) {
     // wall_visibility's convex shortcut (both ends strictly inside a convex set: visible without the segment
     // test) against the segment test itself (polygon_set::crosses on the pulled ends) for every pair of a
-    // jittered cloud with its copies: particles near the walls, some beyond them (the crossing guard would put
-    // those back), copies at the concave corners. Non-convex sets (a 2D floor with a step, a 3D tank with a
-    // block on the floor) must not take the shortcut.
+    // jittered cloud with its copies: particles near the walls, some beyond them (the crossing guard would
+    // put those back), copies at the concave corners. Non-convex sets (a 2D floor with a step, a 3D tank with
+    // a block on the floor) must not take the shortcut.
     constexpr int D = T::value;
     const double L = 0.02;
     const polygon_set<D> tank = [] {
@@ -741,8 +751,8 @@ TEST_SUITE("thin_walls") {
     CHECK(hidden > 0);               // ... and the cloud has pairs the walls hide (ends outside the tank)
     // Not convex: the shortcut stays off.
     if constexpr (D == 2) {
-      const polygon_set<2> step(polyline({vec<2>(0.0, 1.0), vec<2>(0.0, 0.0), vec<2>(0.5, 0.0), vec<2>(0.5, 0.1),
-                                          vec<2>(1.0, 0.1), vec<2>(1.0, 1.0)}));
+      const polygon_set<2> step(polyline({vec<2>(0.0, 1.0), vec<2>(0.0, 0.0), vec<2>(0.5, 0.0),
+                                          vec<2>(0.5, 0.1), vec<2>(1.0, 0.1), vec<2>(1.0, 1.0)}));
       CHECK_FALSE(step.convex());
       wall::wall_visibility<2> vs{&step, &x, n_real, &c};
       vs.prepare(exec::seq{}, 3.1 * L);
@@ -837,8 +847,9 @@ TEST_SUITE("bad_input") {
     CHECK_THROWS_WITH_AS(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, 0.0), 1, w, {}),
                          doctest::Contains("particle 0 has diameter L = 0"), mpskit::error);
     std::vector<flag::type> flags;
-    CHECK_THROWS_WITH_AS(wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, 0.01), 1, w, {}, &flags),
-                         doctest::Contains("flags has 0 entries"), mpskit::error);
+    CHECK_THROWS_WITH_AS(
+        wall::guard_crossings<2>(x0, x1, u, Eigen::VectorXd::Constant(1, 0.01), 1, w, {}, &flags),
+        doctest::Contains("flags has 0 entries"), mpskit::error);
   }
 }
 
@@ -866,8 +877,9 @@ TEST_SUITE("walls_threads") {
     REQUIRE(c1.size() == c2.size());
     bool same = true;
     for (std::size_t k = 0; k < c1.size(); ++k)
-      same = same && c1[k].parent == c2[k].parent && c1[k].element == c2[k].element && c1[k].set == c2[k].set &&
-             c1[k].x == c2[k].x && c1[k].normal == c2[k].normal && c1[k].L == c2[k].L;
+      same = same && c1[k].parent == c2[k].parent && c1[k].element == c2[k].element &&
+             c1[k].set == c2[k].set && c1[k].x == c2[k].x && c1[k].normal == c2[k].normal &&
+             c1[k].L == c2[k].L;
     CHECK(same);
     // guard: random moves of ~0.5 L, some through the tank walls and the baffle
     points<2> x1 = x;

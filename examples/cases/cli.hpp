@@ -1,7 +1,7 @@
 #pragma once
 // Command-line numbers for the examples and the benchmarks: the whole text must be a finite number within its
-// bound, else an mpskit::error names the option and the text. Never atof's silent 0 (`--collision abc` read as 0
-// would switch a stage off without a word).
+// bound, else an mpskit::error names the option and the text. Never atof's silent 0 (`--collision abc` read
+// as 0 would switch a stage off without a word).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -13,8 +13,8 @@
 
 namespace mpskit::cases {
 
-/// A number >= lo from a command-line value (any finite number with the default lo); mpskit::error naming `what`
-/// otherwise (no silent atof zero).
+/// A number >= lo from a command-line value (any finite number with the default lo); mpskit::error naming
+/// `what` otherwise (no silent atof zero).
 inline double parse_number(const char* what, const std::string& s, double lo = -HUGE_VAL) {
   char* end = nullptr;
   const double x = std::strtod(s.c_str(), &end);
@@ -27,7 +27,8 @@ inline double parse_number(const char* what, const std::string& s, double lo = -
   return x;
 }
 
-/// A comma-separated list of numbers >= lo ("3,3.5,4"); mpskit::error naming `what` and the bad entry otherwise.
+/// A comma-separated list of numbers >= lo ("3,3.5,4"); mpskit::error naming `what` and the bad entry
+/// otherwise.
 inline std::vector<double> parse_numbers(const char* what, const std::string& s, double lo) {
   std::vector<double> v;
   std::stringstream in(s);
@@ -47,7 +48,8 @@ inline int parse_integer(const char* what, const std::string& s, int lo) {
   return whole_number(what, parse_number(what, s, lo));
 }
 
-/// A comma-separated list of whole numbers >= lo ("25,50"); mpskit::error naming `what` and the bad entry otherwise.
+/// A comma-separated list of whole numbers >= lo ("25,50"); mpskit::error naming `what` and the bad entry
+/// otherwise.
 inline std::vector<int> parse_integers(const char* what, const std::string& s, int lo) {
   std::vector<int> v;
   for (const double x : parse_numbers(what, s, lo)) v.push_back(whole_number(what, x));

@@ -52,7 +52,8 @@ inline front_series read_front_series(const std::string& path) {
     std::istringstream ls(line);
     double T, Z;
     char comma;
-    if (!(ls >> T >> comma >> Z) || comma != ',') fail("dam break data: '", path, "' line ", lineno, ": expected 'T,Z'");
+    if (!(ls >> T >> comma >> Z) || comma != ',')
+      fail("dam break data: '", path, "' line ", lineno, ": expected 'T,Z'");
     s.points.emplace_back(T, Z);
   }
   if (s.points.size() < 2) fail("dam break data: '", path, "' has fewer than two points");
@@ -87,7 +88,8 @@ double front_position(const Sim& sim) {
   const auto small = sim.op().small_support();
   double front = 0.0;
   for (index_t i = 0; i < st.n_real(); ++i) {
-    if (st.kinds()[static_cast<std::size_t>(i)] != kind::fluid || (st.flags()[static_cast<std::size_t>(i)] & flag::isolated))
+    if (st.kinds()[static_cast<std::size_t>(i)] != kind::fluid ||
+        (st.flags()[static_cast<std::size_t>(i)] & flag::isolated))
       continue;
     int n = 0;
     nl.for_each_neighbour(st.x(), i, small, [&](index_t j, const vec<2>&, double) {
@@ -110,7 +112,8 @@ dam_break_result run_dam_break(dam_break_config cfg, Observer&& observer = {}) {
   static_assert(Scene::dim == 2, "mpskit: the Koshizuka & Oka dam break is 2D");
   cfg.params.l0 = cfg.l0;
   const double g = -cfg.params.g[1];
-  simulation<Scene> sim(cfg.params, tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
+  simulation<Scene> sim(cfg.params,
+                        tank_state<2>(vec<2>(cfg.a, 2 * cfg.a), vec<2>(4 * cfg.a, 2.5 * cfg.a), cfg.l0));
   dam_break_result r;
   r.particles = sim.state().n_real();
   r.fluid = count_kind(sim.state(), kind::fluid);
@@ -145,18 +148,20 @@ dam_break_result run_dam_break(dam_break_config cfg, Observer&& observer = {}) {
   return r;
 }
 
-/// The three surge-front series of tests/data/dam_break_front in `dir`: Martin & Moyce (1952) for a = 1.125 in
-/// and 2.25 in, Koshizuka & Oka (1996). Throws (through read_front_series) naming a missing or bad file.
+/// The three surge-front series of tests/data/dam_break_front in `dir`: Martin & Moyce (1952) for a = 1.125
+/// in and 2.25 in, Koshizuka & Oka (1996). Throws (through read_front_series) naming a missing or bad file.
 inline std::vector<front_series> read_front_data(const std::string& dir) {
   std::vector<front_series> v;
-  for (const char* f : {"martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv", "koshizuka_oka_1996.csv"})
+  for (const char* f :
+       {"martin_moyce_1952_a1.125in.csv", "martin_moyce_1952_a2.25in.csv", "koshizuka_oka_1996.csv"})
     v.push_back(read_front_series(dir + "/" + f));
   return v;
 }
 
 /// The band of the reference data at T: [0.9 min, 1.1 max] over the series defined at T (NaN, NaN
 /// when none is).
-inline std::pair<double, double> front_band(const std::vector<front_series>& data, double T, double rel = 0.10) {
+inline std::pair<double, double> front_band(const std::vector<front_series>& data, double T,
+                                            double rel = 0.10) {
   double lo = 1e300, hi = -1e300;
   for (const auto& s : data) {
     const double z = s.at(T);

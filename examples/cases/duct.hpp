@@ -1,9 +1,9 @@
 #pragma once
 // Start-up flow in a square duct with Tanaka's LSMPS scheme in 3D (issue #8: pressure boundaries in 3D): the
-// duct (0, ℓ) × (0, W)² along x, its four walls triangulated planes (wall::imaginary) extended 4 L beyond both
-// ends, driven from rest either by pressure inflow/outflow faces at x = 0 and x = ℓ (Δp = G ℓ, Tanaka §4.5.2)
-// or, periodic in x, by the body force G/ρ. Reference: the double sine series of the start-up flow (ours, from
-// u_t = G/ρ + ν∇²u with u = 0 on the walls):
+// duct (0, ℓ) × (0, W)² along x, its four walls triangulated planes (wall::imaginary) extended 4 L beyond
+// both ends, driven from rest either by pressure inflow/outflow faces at x = 0 and x = ℓ (Δp = G ℓ, Tanaka
+// §4.5.2) or, periodic in x, by the body force G/ρ. Reference: the double sine series of the start-up flow
+// (ours, from u_t = G/ρ + ν∇²u with u = 0 on the walls):
 //   u(y, z, t) = Σ_{m,n odd} 16 G / (ρ π² m n ν λ_mn) (1 − e^{−ν λ_mn t}) sin(mπy/W) sin(nπz/W),
 //   λ_mn = π² (m² + n²) / W².
 #include <algorithm>
@@ -116,7 +116,8 @@ inline geometry::polygon_mesh<3> duct_faces(double W, double ell) {
 /// (duct_pressure_scene and scenes derived from it), else periodic in x with the body force G/ρ (duct_scene).
 template <class Scene>
 duct_result run_duct_impl(const duct_config& c) {
-  constexpr bool pressure = std::is_same_v<typename scheme::detail::scene_boundary<Scene>::type, mpskit::boundary::pressure>;
+  constexpr bool pressure =
+      std::is_same_v<typename scheme::detail::scene_boundary<Scene>::type, mpskit::boundary::pressure>;
   const double L = c.L, W = c.W, ell = c.length;
   auto p = c.params;
   p.rho = c.rho;
@@ -130,7 +131,8 @@ duct_result run_duct_impl(const duct_config& c) {
   }
   p.time.mode = scheme::time_step_mode::fixed;
   const double Ldt = std::min(L, c.L_fine);
-  p.time.dt_fixed = p.time.dt_max = 0.1 * Ldt * Ldt / p.nu * (1.0 - 1e-12);  // the viscous limit (rounded below)
+  p.time.dt_fixed = p.time.dt_max =
+      0.1 * Ldt * Ldt / p.nu * (1.0 - 1e-12);  // the viscous limit (rounded below)
   geometry::polygon_options<3> opt;
   opt.fluid_seed = vec<3>(0.5 * ell, 0.5 * W, 0.5 * W);
   const geometry::polygon_set<3> walls(duct_walls(W, -4.0 * L, ell + 4.0 * L), opt);
@@ -166,7 +168,8 @@ duct_result run_duct_impl(const duct_config& c) {
     long cells = 0;
     for (std::size_t b = 0; b < us.size(); ++b) {
       if (cnt[b] == 0) continue;
-      const double e = std::abs(us[b] / cnt[b] - ex.velocity(ys[b] / cnt[b], zs[b] / cnt[b], sim.time())) / r.u_centre;
+      const double e =
+          std::abs(us[b] / cnt[b] - ex.velocity(ys[b] / cnt[b], zs[b] / cnt[b], sim.time())) / r.u_centre;
       r.max_error = std::max(r.max_error, e);
       sq += e * e;
       ++cells;
@@ -205,11 +208,12 @@ duct_result run_duct_impl(const duct_config& c) {
   return r;
 }
 
-/// Refines c for duct_pressure_multires_scene (issue #9 item 3 in 3D; the function is ours): target L* = 0.75 L within
-/// 1.5 L of a wall (0.75 mm at L = 0.5 mm), a linear ramp to 1.05 L at 3 L, so the outer band splits once (β_s L = 0.897 L > 0.75 L;
-/// children 2^(−1/3) L) and the core stays at L; the faces carry the target spacing (each face triangle is cut at
-/// the smallest L* of its corners: L_p = 0.354 mm at L = 0.5 mm), which is what keeps the face slabs' pressure drop
-/// at the single-resolution level (docs/resolution.md); ILUT drop tolerance 1e-3 (same digits as 1e-4, 1.25× faster).
+/// Refines c for duct_pressure_multires_scene (issue #9 item 3 in 3D; the function is ours): target
+/// L* = 0.75 L within 1.5 L of a wall (0.75 mm at L = 0.5 mm), a linear ramp to 1.05 L at 3 L, so the outer
+/// band splits once (β_s L = 0.897 L > 0.75 L; children 2^(−1/3) L) and the core stays at L; the faces carry
+/// the target spacing (each face triangle is cut at the smallest L* of its corners: L_p = 0.354 mm at
+/// L = 0.5 mm), which is what keeps the face slabs' pressure drop at the single-resolution level
+/// (docs/resolution.md); ILUT drop tolerance 1e-3 (same digits as 1e-4, 1.25× faster).
 inline void refine_duct_walls(duct_config& c) {
   const double L = c.L, W = c.W;
   const auto target = [L, W](const vec<3>& x) {

@@ -1,32 +1,33 @@
 #pragma once
-// Flow between two fixed gears (Tanaka, Cardoso & Bahai 2018 §5.5; validation-cases.md A5): geometry generator
-// (the domain as mpskit_polyline text), the multi-resolution scene and its runner.
+// Flow between two fixed gears (Tanaka, Cardoso & Bahai 2018 §5.5; validation-cases.md A5): geometry
+// generator (the domain as mpskit_polyline text), the multi-resolution scene and its runner.
 //
-// The paper gives: top gear 12 teeth, tip diameter 42 mm, tooth depth 6.75 mm; bottom gear 24 teeth, tip diameter
-// 78 mm, tooth depth 6.75 mm; centre distance 55 mm; minimum gap 0.68 mm; fluid area 1061.6 mm²; 100 Pa on the
-// right face, 0 Pa on the left; ρ = 1000 kg/m³, μ = 0.001 Pa s, no body force; to 0.4 s; the target diameter a
-// function of the distance from the domain's centre (Fig. 21b, not in the text). Fig. 21 is not available: every
-// other number below is OUR reconstruction (docs/gears.md):
+// The paper gives: top gear 12 teeth, tip diameter 42 mm, tooth depth 6.75 mm; bottom gear 24 teeth, tip
+// diameter 78 mm, tooth depth 6.75 mm; centre distance 55 mm; minimum gap 0.68 mm; fluid area 1061.6 mm²;
+// 100 Pa on the right face, 0 Pa on the left; ρ = 1000 kg/m³, μ = 0.001 Pa s, no body force; to 0.4 s; the
+// target diameter a function of the distance from the domain's centre (Fig. 21b, not in the text). Fig. 21 is
+// not available: every other number below is OUR reconstruction (docs/gears.md):
 //  - Teeth: module m = tip diameter / (N + 2) = 3 mm for both gears (42/14 = 78/26 = 3: a standard pair whose
 //    depth 6.75 mm = 2.25 m), involute flanks with a 20° pressure angle, radial flanks below the base circle,
 //    tip and root corners rounded (quadratic Bézier, `tip_round`, `root_round`).
-//  - Tooth thickness: the standard π m/2 at the pitch circle minus `thinning`, the same for both gears, solved so
-//    that the smallest outline-to-outline distance is `gap` (0.68 mm). At 55 mm (1 mm over the standard 54 mm)
-//    the standard pair's normal backlash 2 Δa sin 20° = 0.684 mm is shared by the two flanks of the symmetric
-//    phase (0.34 mm each), so the teeth must be thinned to give 0.68 mm on each side.
+//  - Tooth thickness: the standard π m/2 at the pitch circle minus `thinning`, the same for both gears,
+//    solved so that the smallest outline-to-outline distance is `gap` (0.68 mm). At 55 mm (1 mm over the
+//    standard 54 mm) the standard pair's normal backlash 2 Δa sin 20° = 0.684 mm is shared by the two flanks
+//    of the symmetric phase (0.34 mm each), so the teeth must be thinned to give 0.68 mm on each side.
 //  - Phase: symmetric about the line of centres: a bottom tooth points straight up into a top tooth space.
-//  - Coordinates: origin on the line of centres, midway through the overlap of the tip circles (5 mm); the bottom
-//    centre at y = −36.5 mm, the top centre at y = +18.5 mm. The origin is the "domain centre" of L*(d).
-//  - Window: a straight top wall at the top gear's centre height (it meets the top gear's root circle in the tooth
-//    spaces at 0° and 180°), vertical pressure faces at x = ±a, the bottom gear below; a solved so that the fluid
-//    area is `area`. The faces' lines cut the bottom gear's teeth: tooth spaces a face line cuts off below the face's
-//    lower end are not part of the fluid (not counted in the area, not filled).
-//  - Pressure: the printed values (100 Pa right, 0 Pa left), so the flow runs right to left; the text's "inflow on
-//    the left" contradicts them and is not followed.
-//  - Target diameter: a √2 staircase in d (gears_config::target); initial particles: a wall row plus a quadtree
-//    (gears_initial_state).
-//  - Scheme: Tanaka's LSMPS with three opt-in stabilisers (gears_config::params), without which every run blew up
-//    beside a tooth within milliseconds (docs/gears.md "Failures and what we tried").
+//  - Coordinates: origin on the line of centres, midway through the overlap of the tip circles (5 mm); the
+//    bottom centre at y = −36.5 mm, the top centre at y = +18.5 mm. The origin is the "domain centre" of
+//    L*(d).
+//  - Window: a straight top wall at the top gear's centre height (it meets the top gear's root circle in the
+//    tooth spaces at 0° and 180°), vertical pressure faces at x = ±a, the bottom gear below; a solved so that
+//    the fluid area is `area`. The faces' lines cut the bottom gear's teeth: tooth spaces a face line cuts
+//    off below the face's lower end are not part of the fluid (not counted in the area, not filled).
+//  - Pressure: the printed values (100 Pa right, 0 Pa left), so the flow runs right to left; the text's
+//    "inflow on the left" contradicts them and is not followed.
+//  - Target diameter: a √2 staircase in d (gears_config::target); initial particles: a wall row plus a
+//    quadtree (gears_initial_state).
+//  - Scheme: Tanaka's LSMPS with three opt-in stabilisers (gears_config::params), without which every run
+//    blew up beside a tooth within milliseconds (docs/gears.md "Failures and what we tried").
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -53,16 +54,16 @@ namespace mpskit::cases {
 
 /// The paper's numbers and our reconstruction's (file comment; docs/gears.md). Lengths in m.
 struct gears_geometry_config {
-  int teeth_top = 12, teeth_bottom = 24;         ///< [P]
+  int teeth_top = 12, teeth_bottom = 24;           ///< [P]
   double tip_d_top = 0.042, tip_d_bottom = 0.078;  ///< tip diameters [P]
-  double depth = 6.75e-3;                        ///< tooth depth [P]
-  double centre_distance = 0.055;                ///< [P]
-  double gap = 0.68e-3;                          ///< minimum outline-to-outline distance [P] (the solve's target)
-  double area = 1061.6e-6;                       ///< fluid area [P] (the solve's target, m²)
+  double depth = 6.75e-3;                          ///< tooth depth [P]
+  double centre_distance = 0.055;                  ///< [P]
+  double gap = 0.68e-3;     ///< minimum outline-to-outline distance [P] (the solve's target)
+  double area = 1061.6e-6;  ///< fluid area [P] (the solve's target, m²)
   double pressure_angle = 20.0 * std::numbers::pi / 180.0;  ///< ours
   double tip_round = 0.5e-3, root_round = 0.4e-3;           ///< corner rounding radii (ours)
-  double ds = 0.1e-3;                            ///< outline sampling (segment length, ours)
-  double overhang = 4e-3;                        ///< walls continue this far beyond the faces (as the channels)
+  double ds = 0.1e-3;                                       ///< outline sampling (segment length, ours)
+  double overhang = 4e-3;  ///< walls continue this far beyond the faces (as the channels)
 };
 
 /// A generated domain: the polyline mesh (walls, then the two faces) and the solved numbers.
@@ -83,8 +84,9 @@ using pts = std::vector<vec<2>>;
 
 inline double involute(double alpha) { return std::tan(alpha) - alpha; }
 
-/// Rounds the corner at index c of an open polyline with a quadratic Bézier of tangent length t (control point the
-/// corner): smooth (tangent-continuous) replacement of the sharp vertex. Returns false if t does not fit.
+/// Rounds the corner at index c of an open polyline with a quadratic Bézier of tangent length t (control
+/// point the corner): smooth (tangent-continuous) replacement of the sharp vertex. Returns false if t does
+/// not fit.
 inline bool round_corner(pts& p, std::size_t c, double t, double ds) {
   if (!(t > 0.0) || c == 0 || c + 1 >= p.size()) return true;
   // walk back from c a length t
@@ -132,11 +134,11 @@ inline double turn(const pts& p, std::size_t c) {
   return std::acos(std::clamp(d1.dot(d2), -1.0, 1.0));
 }
 
-/// Closed outline of one gear, counter-clockwise (the gear's inside on the left), without a repeated end point.
-/// Involute of the base circle r_b = r_p cos α above the base circle, the half-thickness angle
+/// Closed outline of one gear, counter-clockwise (the gear's inside on the left), without a repeated end
+/// point. Involute of the base circle r_b = r_p cos α above the base circle, the half-thickness angle
 /// ψ(r) = s/(2 r_p) + inv α − inv α_r, cos α_r = r_b / r (standard involute geometry); radial below r_b.
-inline pts gear_outline(int N, double r_tip, double depth, double alpha, double thinning, const vec<2>& centre,
-                        double phase, double tip_round, double root_round, double ds) {
+inline pts gear_outline(int N, double r_tip, double depth, double alpha, double thinning,
+                        const vec<2>& centre, double phase, double tip_round, double root_round, double ds) {
   const double pi = std::numbers::pi;
   const double m = 2.0 * r_tip / (N + 2);
   const double rp = 0.5 * m * N, rb = rp * std::cos(alpha), rr = r_tip - depth;
@@ -215,8 +217,8 @@ inline bool inside(const pts& P, const vec<2>& x) {
   return in;
 }
 
-/// Clips a closed outline to the box [lo, hi] (Liang–Barsky per segment); returns the open chains inside, in the
-/// outline's order. Precondition: P[0] lies outside the box (no chain wraps around the start).
+/// Clips a closed outline to the box [lo, hi] (Liang–Barsky per segment); returns the open chains inside, in
+/// the outline's order. Precondition: P[0] lies outside the box (no chain wraps around the start).
 inline std::vector<pts> clip(const pts& P, const vec<2>& lo, const vec<2>& hi) {
   std::vector<pts> chains;
   bool open = false;
@@ -261,29 +263,34 @@ inline pts start_at_extreme(pts P, bool lowest) {
   return P;
 }
 
-/// The fluid boundary of the window [−a, a] × (−∞, y_top] outside both gears, as oriented open chains (fluid on the
-/// left); faces are the face chains (one segment each, x = +a then x = −a). With `ext` > 0 the walls (gear chains,
-/// top wall) are clipped to [−a − ext, a + ext] instead (the overhang beyond the faces).
+/// The fluid boundary of the window [−a, a] × (−∞, y_top] outside both gears, as oriented open chains (fluid
+/// on the left); faces are the face chains (one segment each, x = +a then x = −a). With `ext` > 0 the walls
+/// (gear chains, top wall) are clipped to [−a − ext, a + ext] instead (the overhang beyond the faces).
 struct boundary_chains {
   std::vector<pts> walls;
   std::array<pts, 2> faces;  // right (x = +a, upward), left (x = −a, downward)
   int pockets = 0;
 };
 
-inline boundary_chains window_boundary(const pts& bottom_cw, double centre_y, const pts& top_cw, double a, double y_top,
-                                       double ext) {
+inline boundary_chains window_boundary(const pts& bottom_cw, double centre_y, const pts& top_cw, double a,
+                                       double y_top, double ext) {
   boundary_chains r;
   const double big = 1.0;  // 1 m: beyond everything
-  const double ylo = centre_y;  // the bottom gear's upper half (bottom_cw starts at its lowest vertex, outside)
-  for (pts& c : clip(bottom_cw, vec<2>(-a - ext, ylo), vec<2>(a + ext, y_top))) r.walls.push_back(std::move(c));
+  const double ylo =
+      centre_y;  // the bottom gear's upper half (bottom_cw starts at its lowest vertex, outside)
+  for (pts& c : clip(bottom_cw, vec<2>(-a - ext, ylo), vec<2>(a + ext, y_top)))
+    r.walls.push_back(std::move(c));
   const std::vector<pts> tc = clip(top_cw, vec<2>(-big, -big), vec<2>(big, y_top));
-  if (tc.size() != 1) fail("gears: the top wall must cut the top gear in two points (", tc.size(), " chains)");
+  if (tc.size() != 1)
+    fail("gears: the top wall must cut the top gear in two points (", tc.size(), " chains)");
   const pts& g = tc.front();  // from the right crossing, around the bottom, to the left crossing
-  pts top{vec<2>(a + ext, y_top)};  // the top wall, the top gear's lower half, the top wall: one connected chain
+  pts top{
+      vec<2>(a + ext, y_top)};  // the top wall, the top gear's lower half, the top wall: one connected chain
   top.insert(top.end(), g.begin(), g.end());
   top.push_back(vec<2>(-a - ext, y_top));
   r.walls.push_back(std::move(top));
-  // the face lines: intervals outside the bottom gear; the topmost reaches y_top (the face), the others are pockets
+  // the face lines: intervals outside the bottom gear; the topmost reaches y_top (the face), the others are
+  // pockets
   for (int side = 0; side < 2; ++side) {
     const double x = side == 0 ? a : -a;
     std::vector<double> ys;
@@ -301,17 +308,19 @@ inline boundary_chains window_boundary(const pts& bottom_cw, double centre_y, co
       const double y0 = ys[q], y1 = q + 1 < ys.size() ? std::min(ys[q + 1], y_top) : y_top;
       if (y0 < y1 && y0 < y_top && !inside(bottom_cw, vec<2>(x, 0.5 * (y0 + y1)))) iv.emplace_back(y0, y1);
     }
-    if (iv.empty() || iv.back().second != y_top) fail("gears: the face at x = ", x, " m does not reach the top wall");
+    if (iv.empty() || iv.back().second != y_top)
+      fail("gears: the face at x = ", x, " m does not reach the top wall");
     const auto& f = iv.back();
-    r.faces[static_cast<std::size_t>(side)] = side == 0 ? pts{vec<2>(x, f.first), vec<2>(x, f.second)}   // upward, normal −x
-                                                        : pts{vec<2>(x, f.second), vec<2>(x, f.first)};  // downward, normal +x
+    r.faces[static_cast<std::size_t>(side)] =
+        side == 0 ? pts{vec<2>(x, f.first), vec<2>(x, f.second)}   // upward, normal −x
+                  : pts{vec<2>(x, f.second), vec<2>(x, f.first)};  // downward, normal +x
     r.pockets += static_cast<int>(iv.size()) - 1;
   }
   return r;
 }
 
-/// The bottom gear's chain between the two faces' lower ends (ext = 0 clipping): the fluid's lower boundary. Other
-/// clipped pieces bound tooth spaces cut off by the face lines (not connected to the window's fluid).
+/// The bottom gear's chain between the two faces' lower ends (ext = 0 clipping): the fluid's lower boundary.
+/// Other clipped pieces bound tooth spaces cut off by the face lines (not connected to the window's fluid).
 inline const pts& main_bottom_chain(const boundary_chains& b) {
   const vec<2> from = b.faces[1].back(), to = b.faces[0].front();
   for (const pts& c : b.walls)
@@ -367,7 +376,8 @@ inline gears_geometry make_gears_geometry(const gears_geometry_config& g) {
   std::reverse(bot.begin(), bot.end());
   const gd::pts top_cw = gd::start_at_extreme(std::move(top), false);
   const gd::pts bot_cw = gd::start_at_extreme(std::move(bot), true);
-  // the area of the fluid connected to the faces: the main bottom chain, the top walls and top gear, the faces
+  // the area of the fluid connected to the faces: the main bottom chain, the top walls and top gear, the
+  // faces
   const auto area = [&](double a) {
     const gd::boundary_chains b = gd::window_boundary(bot_cw, r.centre_bottom[1], top_cw, a, r.y_top, 0.0);
     std::vector<gd::pts> loop{b.walls.back()};  // the top wall, the top gear, the top wall
@@ -384,7 +394,8 @@ inline gears_geometry make_gears_geometry(const gears_geometry_config& g) {
   }
   r.a = 0.5 * (alo + ahi);
   r.area = area(r.a);
-  const gd::boundary_chains b = gd::window_boundary(bot_cw, r.centre_bottom[1], top_cw, r.a, r.y_top, g.overhang);
+  const gd::boundary_chains b =
+      gd::window_boundary(bot_cw, r.centre_bottom[1], top_cw, r.a, r.y_top, g.overhang);
   r.pockets = b.pockets;
   // mesh: walls first, then the right face, then the left face
   std::vector<vec<2>> v;
@@ -393,7 +404,8 @@ inline gears_geometry make_gears_geometry(const gears_geometry_config& g) {
     const index_t first = static_cast<index_t>(v.size());
     v.insert(v.end(), c.begin(), c.end());
     for (std::size_t q = 0; q + 1 < c.size(); ++q)
-      if ((c[q + 1] - c[q]).norm() > 1e-12) e.push_back({first + static_cast<index_t>(q), first + static_cast<index_t>(q + 1)});
+      if ((c[q + 1] - c[q]).norm() > 1e-12)
+        e.push_back({first + static_cast<index_t>(q), first + static_cast<index_t>(q + 1)});
   };
   for (const gd::pts& c : b.walls) add(c);
   add(b.faces[0]);
@@ -405,9 +417,8 @@ inline gears_geometry make_gears_geometry(const gears_geometry_config& g) {
   return r;
 }
 
-/// Splits a domain read from a polyline into walls and faces: the faces are the segments on x = ±a that reach the
-/// top wall y = y_top (exactly two). Returns {walls, faces} with
-/// the faces ordered right (x = +a), left.
+/// Splits a domain read from a polyline into walls and faces: the faces are the segments on x = ±a that reach
+/// the top wall y = y_top (exactly two). Returns {walls, faces} with the faces ordered right (x = +a), left.
 inline std::pair<geometry::polygon_mesh<2>, geometry::polygon_mesh<2>> split_gears_faces(
     const geometry::polygon_mesh<2>& m, double a, double y_top) {
   const double tol = 1e-9;
@@ -428,7 +439,8 @@ inline std::pair<geometry::polygon_mesh<2>, geometry::polygon_mesh<2>> split_gea
   geometry::polygon_mesh<2> w, f;
   w.vertices = m.vertices;
   w.elements.resize(2, static_cast<index_t>(walls.size()));
-  for (std::size_t q = 0; q < walls.size(); ++q) w.elements.col(static_cast<index_t>(q)) = m.elements.col(walls[q]);
+  for (std::size_t q = 0; q < walls.size(); ++q)
+    w.elements.col(static_cast<index_t>(q)) = m.elements.col(walls[q]);
   f.vertices.resize(2, 4);
   f.elements.resize(2, 2);
   index_t k = 0;
@@ -456,7 +468,8 @@ inline std::pair<geometry::polygon_mesh<2>, geometry::polygon_mesh<2>> split_gea
 }
 
 /// The case's scene: Tanaka's LSMPS scheme, pressure faces, splitting and merging, ILUT-BiCGSTAB (the
-/// Dirichlet-to-Dirichlet PPE through a winding 0.68 mm passage; the long channel needed ILUT, docs/channel.md).
+/// Dirichlet-to-Dirichlet PPE through a winding 0.68 mm passage; the long channel needed ILUT,
+/// docs/channel.md).
 struct gears_scene : lsmps_defaults<2> {
   using surface = mpskit::scheme::no_surface;
   using boundary = mpskit::boundary::pressure;
@@ -481,20 +494,21 @@ struct gears_config {
   double L_min = 0.2e-3;     ///< target diameter within r_fine of the centre (m)
   double L_max = 0.8e-3;     ///< the largest target diameter (m); the initial coarse lattice
   /// L*(d) (ours): L_min for d < r_fine, then ×√2 every `level_width` up to L_max: a staircase of one split
-  /// generation per step (eq. 65: L′ = L/√2). The odd steps are 0.99 √2 × the level below, inside eq. 71's merge
-  /// threshold (β_m = √2), so that the initial quadtree (levels L_max / 2^k) starts without a split or merge.
-  /// L_max / L_min a power of 2.
+  /// generation per step (eq. 65: L′ = L/√2). The odd steps are 0.99 √2 × the level below, inside eq. 71's
+  /// merge threshold (β_m = √2), so that the initial quadtree (levels L_max / 2^k) starts without a split or
+  /// merge. L_max / L_min a power of 2.
   double r_fine = 7e-3, level_width = 3e-3;
   double p_right = 100.0, p_left = 0.0;    ///< face pressures (Pa) [P]
   double rho = 1000.0, mu = 0.001;         ///< [P]
   double t_end = 0.05;       ///< run end (s); the paper 0.4 s
   double window = 0.01;      ///< the balance is averaged over the last `window` seconds
   double wall_limit = 0.0;   ///< stop after this many wall-clock seconds (0: none); reported as `stopped`
-  /// The scheme's numbers: the library defaults except three opt-ins (docs/gears.md "What it took"): the two-point
-  /// term of the copy row (copy_two_point β = 1) and the wall-only projection of the shifting penalty (the dam break's
-  /// opt-in pair, docs/lsmps_scheme.md), and the one-sided-band velocity filter at ε = 0.2 per step (default 0.05).
-  /// With the defaults every run blew up within 2–6 ms beside a tooth (single resolution at 0.2 mm too, at 6.2 ms);
-  /// with β = 1 alone at 4.6 ms, with ε = 0.2 alone at once, with both at 33 ms.
+  /// The scheme's numbers: the library defaults except three opt-ins (docs/gears.md "What it took"): the
+  /// two-point term of the copy row (copy_two_point β = 1) and the wall-only projection of the shifting
+  /// penalty (the dam break's opt-in pair, docs/lsmps_scheme.md), and the one-sided-band velocity filter at
+  /// ε = 0.2 per step (default 0.05). With the defaults every run blew up within 2–6 ms beside a tooth
+  /// (single resolution at 0.2 mm too, at 6.2 ms); with β = 1 alone at 4.6 ms, with ε = 0.2 alone at once,
+  /// with both at 33 ms.
   scheme::lsmps_params<2> params = [] {
     scheme::lsmps_params<2> p;
     p.copy_two_point = 1.0;
@@ -508,7 +522,8 @@ struct gears_config {
     b.alpha_o = 0.5;
     return b;
   }();
-  /// The target diameter L*(x), Tanaka's Fig. 21b reconstructed: a function of the distance d from the origin.
+  /// The target diameter L*(x), Tanaka's Fig. 21b reconstructed: a function of the distance d from the
+  /// origin.
   double target(const vec<2>& x) const {
     const double d = x.norm();
     if (d < r_fine) return L_min;
@@ -535,15 +550,17 @@ struct gears_result {
   std::string failure;  ///< the error's message when the run stopped early
 };
 
-/// Initial particles (ours): a row along every wall (below), then a cell-centred quadtree over the window (coarse cells
-/// of L_max, halved while L* < β_s h at the cell's centre, Tanaka eq. 66's β_s, so that no particle wants to split),
-/// keeping leaves at least h/2 inside the walls and clear of the row; only particles connected to the top-right corner
-/// without crossing a wall are kept. Volume h² each. With gears_config's √2 staircase a particle's size lies inside
-/// the no-event band [1/β_m, 1/β_s] × L* (eqs. 66, 71) except in cells straddling a step (a linear L* ramp gave 343
-/// merges at step 1: that band is narrower than the quadtree's factor 2).
-inline scheme::lsmps_state<2> gears_initial_state(const gears_config& c, const geometry::polygon_mesh<2>& wall_mesh,
-                                                  const geometry::polygon_set<2>& walls, double a, double y_top,
-                                                  double y_bottom) {
+/// Initial particles (ours): a row along every wall (below), then a cell-centred quadtree over the window
+/// (coarse cells of L_max, halved while L* < β_s h at the cell's centre, Tanaka eq. 66's β_s, so that no
+/// particle wants to split), keeping leaves at least h/2 inside the walls and clear of the row; only
+/// particles connected to the top-right corner without crossing a wall are kept. Volume h² each. With
+/// gears_config's √2 staircase a particle's size lies inside the no-event band [1/β_m, 1/β_s] × L* (eqs. 66,
+/// 71) except in cells straddling a step (a linear L* ramp gave 343 merges at step 1: that band is narrower
+/// than the quadtree's factor 2).
+inline scheme::lsmps_state<2> gears_initial_state(const gears_config& c,
+                                                  const geometry::polygon_mesh<2>& wall_mesh,
+                                                  const geometry::polygon_set<2>& walls, double a,
+                                                  double y_top, double y_bottom) {
   const double beta_s = 0.5 * (std::sqrt(0.5) + 1.0);
   const auto level = [&](const vec<2>& p) {  // the quadtree's size at p
     double s = c.L_max;
@@ -552,16 +569,18 @@ inline scheme::lsmps_state<2> gears_initial_state(const gears_config& c, const g
   };
   std::vector<vec<2>> x;
   std::vector<double> h;
-  // 1. A row along every wall, h/2 off it and h apart (h the local level): each wall is represented by imaginary
-  //    copies (α_w L) from the start. Quadtree leaves alone left gaps up to ≈ h beside curved walls; a particle with no
-  //    copy beside a wall gap (the top corners, 0.94 L from the gear) started an odd-even pressure mode at step 2.
+  // 1. A row along every wall, h/2 off it and h apart (h the local level): each wall is represented by
+  //    imaginary copies (α_w L) from the start. Quadtree leaves alone left gaps up to ≈ h beside curved
+  //    walls; a particle with no copy beside a wall gap (the top corners, 0.94 L from the gear) started an
+  //    odd-even pressure mode at step 2.
   const auto far_enough = [&](const vec<2>& p, double hp, double factor) {
     for (std::size_t q = 0; q < x.size(); ++q)
       if ((x[q] - p).norm() < factor * 0.5 * (h[q] + hp)) return false;
     return true;
   };
   for (index_t e = 0; e < wall_mesh.size(); ++e) {
-    const vec<2> p0 = wall_mesh.vertices.col(wall_mesh.elements(0, e)), p1 = wall_mesh.vertices.col(wall_mesh.elements(1, e));
+    const vec<2> p0 = wall_mesh.vertices.col(wall_mesh.elements(0, e)),
+                 p1 = wall_mesh.vertices.col(wall_mesh.elements(1, e));
     const double len = (p1 - p0).norm();
     const vec<2> t = (p1 - p0) / len, n(-t[1], t[0]);  // n: into the fluid (left of p0 → p1)
     double u = 0.0;
@@ -598,11 +617,12 @@ inline scheme::lsmps_state<2> gears_initial_state(const gears_config& c, const g
     h.push_back(s);
   };
   const double h0 = c.L_max;
-  const int ni = static_cast<int>(std::ceil(2.0 * a / h0)), nj = static_cast<int>(std::ceil((y_top - y_bottom) / h0));
+  const int ni = static_cast<int>(std::ceil(2.0 * a / h0)),
+            nj = static_cast<int>(std::ceil((y_top - y_bottom) / h0));
   for (int i = 0; i < ni; ++i)
     for (int j = 0; j < nj; ++j) cell(vec<2>(a - (i + 0.5) * h0, y_top - (j + 0.5) * h0), h0);
-  // Keep the leaves connected to the top-right corner without crossing a wall: tooth spaces cut off by a face line
-  // lie outside the gears but are not part of the window's fluid.
+  // Keep the leaves connected to the top-right corner without crossing a wall: tooth spaces cut off by a face
+  // line lie outside the gears but are not part of the window's fluid.
   std::vector<std::vector<std::size_t>> bucket(static_cast<std::size_t>(ni * nj));
   const auto key = [&](const vec<2>& p) {
     const int i = std::clamp(static_cast<int>((a - p[0]) / h0), 0, ni - 1);
@@ -649,8 +669,8 @@ inline scheme::lsmps_state<2> gears_initial_state(const gears_config& c, const g
 }
 
 /// Runs the case on a domain read from a polyline (walls and the two faces, split by split_gears_faces). The
-/// observer is called after every step (VTK, progress). Failures of the stepper (PPE, non-finite values) are caught
-/// and reported in the result with the time reached; the extremes up to then are kept.
+/// observer is called after every step (VTK, progress). Failures of the stepper (PPE, non-finite values) are
+/// caught and reported in the result with the time reached; the extremes up to then are kept.
 template <class Scene = gears_scene, class Observer>
 gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, double a, double y_top,
                        Observer&& observer) {
@@ -665,14 +685,14 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
   p.rho = c.rho;
   p.nu = c.mu / c.rho;
   p.g.setZero();
-  // adaptive, Courant α_C = 0.1 (Tanaka Table 2); dt_max = α_C L_min / √(2 Δp / ρ) (ours): at rest the Courant
-  // limit says nothing, and the first step at 1 ms gave 1.1 m/s and a PPE divergence at step 2
+  // adaptive, Courant α_C = 0.1 (Tanaka Table 2); dt_max = α_C L_min / √(2 Δp / ρ) (ours): at rest the
+  // Courant limit says nothing, and the first step at 1 ms gave 1.1 m/s and a PPE divergence at step 2
   p.time.dt_max = p.time.courant * c.L_min / std::sqrt(2.0 * std::abs(c.p_right - c.p_left) / c.rho);
   const gears_config cc = c;
   p.resolution.target_diameter = [cc](const vec<2>& x) { return cc.target(x); };
   const auto spacing = [&](const vec<2>& y) { return std::min(c.L_max, c.target(y)); };
-  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_right, c.p_left}, spacing,
-                                          c.boundary);
+  const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_right, c.p_left},
+                                          spacing, c.boundary);
   simulation<Scene> sim(p, gears_initial_state(c, wm_copy, walls, a, y_top, y_bottom), &walls, &pb);
   gears_result r;
   r.particles = sim.state().n_real();
@@ -726,7 +746,8 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
   const auto& k = sim.counters();
   record_channel_end(r, k, sim.state(), V0);
   r.ppe_iterations_max = k.ppe_iterations_max;
-  r.ppe_iterations_mean = k.steps > 0 ? static_cast<double>(k.ppe_iterations) / static_cast<double>(k.steps) : 0.0;
+  r.ppe_iterations_mean =
+      k.steps > 0 ? static_cast<double>(k.ppe_iterations) / static_cast<double>(k.steps) : 0.0;
   r.particles_mean = nsteps > 0 ? n_sum / static_cast<double>(nsteps) : static_cast<double>(r.particles);
   return r;
 }

@@ -68,7 +68,8 @@ hydrostatic_result run_hydrostatic(hydrostatic_config<Scene::dim> cfg) {
     double h = 0.0;
     long n = 0;
     for (index_t i = 0; i < st.n_real(); ++i)
-      if (st.kinds()[static_cast<std::size_t>(i)] == kind::fluid && (st.flags()[static_cast<std::size_t>(i)] & flag::surface)) {
+      if (st.kinds()[static_cast<std::size_t>(i)] == kind::fluid &&
+          (st.flags()[static_cast<std::size_t>(i)] & flag::surface)) {
         h += st.x()(D - 1, i);
         ++n;
       }
@@ -103,7 +104,8 @@ hydrostatic_result run_hydrostatic(hydrostatic_config<Scene::dim> cfg) {
     r.bin_depth.push_back(c ? dsum[static_cast<std::size_t>(b)] / c : 0.0);
     r.bin_pressure.push_back(c ? psum[static_cast<std::size_t>(b)] / c : 0.0);
     if (b >= 2 && c > 0 && r.bin_depth.back() <= cfg.depth)
-      r.max_bin_error = std::max(r.max_bin_error, std::abs(r.bin_pressure.back() - rho * g * r.bin_depth.back()) / ref);
+      r.max_bin_error =
+          std::max(r.max_bin_error, std::abs(r.bin_pressure.back() - rho * g * r.bin_depth.back()) / ref);
   }
   double u2 = 0.0, umax = 0.0;
   r.min_fluid_height = 1e300;

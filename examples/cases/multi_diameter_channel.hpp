@@ -25,9 +25,9 @@
 
 namespace mpskit::cases {
 
-/// ILUT-BiCGSTAB (`ppe::bicgstab`, lagged ILUT) in place of the Jacobi default: at the paper's L = 0.25 mm the
-/// Jacobi-preconditioned BiCGSTAB breaks down (a NaN residual at t = 0.025 s, docs/channel.md); at the CI size
-/// the two give the same flow (volume balance 1.23 % against 1.20 %).
+/// ILUT-BiCGSTAB (`ppe::bicgstab`, lagged ILUT) in place of the Jacobi default: at the paper's L = 0.25 mm
+/// the Jacobi-preconditioned BiCGSTAB breaks down (a NaN residual at t = 0.025 s, docs/channel.md); at the CI
+/// size the two give the same flow (volume balance 1.23 % against 1.20 %).
 struct multi_diameter_scene : lsmps_defaults<2> {
   using surface = mpskit::scheme::no_surface;
   using boundary = mpskit::boundary::pressure;
@@ -41,10 +41,10 @@ struct multi_diameter_config {
   double rho = 1000.0, mu = 0.001;   ///< fluid
   double t_end = 0.3;       ///< run end (s)
   double window = 0.1;      ///< the balance is averaged over the last `window` seconds
-  /// The scheme's numbers: the library's, except `thin_walls = false` (since 2026-11-29): the channel has no wall
-  /// thinner than the support, and the visibility test then only cuts pairs clipping the solid wedge of the
-  /// taper's convex corners, whose on/off switching as particles pass the corners drove the pressure pulses
-  /// there (docs/channel.md; the paper-size run failed at t ≈ 0.99 s with it, reached 1 s without).
+  /// The scheme's numbers: the library's, except `thin_walls = false` (since 2026-11-29): the channel has no
+  /// wall thinner than the support, and the visibility test then only cuts pairs clipping the solid wedge of
+  /// the taper's convex corners, whose on/off switching as particles pass the corners drove the pressure
+  /// pulses there (docs/channel.md; the paper-size run failed at t ≈ 0.99 s with it, reached 1 s without).
   scheme::lsmps_params<2> params = [] {
     scheme::lsmps_params<2> p;
     p.thin_walls = false;
@@ -54,17 +54,18 @@ struct multi_diameter_config {
   /// target diameter) sets it to the target there, so inflow creates particles of the local target size.
   std::function<double(const vec<2>&)> boundary_spacing;
   /// Start from particles at the target diameter (resolution::graded_lattice from the L lattice, with
-  /// params.resolution.target_diameter) instead of the L lattice everywhere, which then splits in the first steps.
+  /// params.resolution.target_diameter) instead of the L lattice everywhere, which then splits in the first
+  /// steps.
   bool graded_start = false;
   /// > 0: a progress row (io::progress_sink) on stderr at most every that many wall seconds (long runs).
   double progress_interval = 0.0;
-  /// Long runs in pieces (cases/run_pieces.hpp): the particles, the scheme's state and the running measurements
-  /// below go to the checkpoint; a resumed file must have this config's L, t_end and window (checked), the rest is
-  /// the caller's to keep. Stopped early: `finished` false, the result partial.
+  /// Long runs in pieces (cases/run_pieces.hpp): the particles, the scheme's state and the running
+  /// measurements below go to the checkpoint; a resumed file must have this config's L, t_end and window
+  /// (checked), the rest is the caller's to keep. Stopped early: `finished` false, the result partial.
   run_pieces pieces;
   /// The pressure boundary's numbers: Table 1 except α_o = 0.5 (ours; docs/channel.md), with the default
-  /// face-distance outflow rule: with α_o = 0.25 the L = 1 mm run failed at t = 0.30 s (pressure spikes beside
-  /// the outlet and the convex taper corners).
+  /// face-distance outflow rule: with α_o = 0.25 the L = 1 mm run failed at t = 0.30 s (pressure spikes
+  /// beside the outlet and the convex taper corners).
   boundary::pressure_params boundary = [] {
     boundary::pressure_params b;
     b.alpha_o = 0.5;
@@ -96,10 +97,11 @@ struct multi_diameter_multires_scene : multi_diameter_scene {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// Refines c for a multi-resolution scene (params.resolution, boundary spacing): the target diameter (ours: the
-/// paper's Fig. 12b is not in the text, only that L* depends on the distance d from the outlet's midpoint) is
-/// L_fine for d ≤ one section length (the narrow section), a linear ramp to 1.05 L at two section lengths, so
-/// the particles of the L lattice split entering the narrow section; the faces carry the target spacing (≤ L).
+/// Refines c for a multi-resolution scene (params.resolution, boundary spacing): the target diameter (ours:
+/// the paper's Fig. 12b is not in the text, only that L* depends on the distance d from the outlet's
+/// midpoint) is L_fine for d ≤ one section length (the narrow section), a linear ramp to 1.05 L at two
+/// section lengths, so the particles of the L lattice split entering the narrow section; the faces carry the
+/// target spacing (≤ L).
 inline void refine_narrow_section(multi_diameter_config& c, double L_fine) {
   const double Lc = c.L, s = c.section;
   const vec<2> outlet(3.0 * s, 0.0);
@@ -165,17 +167,24 @@ inline multi_diameter_setup make_multi_diameter(const multi_diameter_config& c) 
   const auto spacing = [&](const vec<2>& y) { return c.boundary_spacing ? c.boundary_spacing(y) : L; };
   out.boundary.emplace(geometry::polygon_set<2>(std::move(fm)), std::vector<double>{c.p_in, c.p_out}, spacing,
                        c.boundary);
-  // The L lattice on x in (0, ell), y = (j + ½) L from j = −⌈a/L⌉, kept at ≥ L/2 from the walls; or that lattice
-  // graded to the target diameter (resolution::graded_lattice; a particle of diameter h kept at ≥ h/2).
-  const auto keep = [&](const vec<2>& x, double h) { return walls.signed_distance(x) >= 0.5 * h * (1.0 - 1e-12); };
+  // The L lattice on x in (0, ell), y = (j + ½) L from j = −⌈a/L⌉, kept at ≥ L/2 from the walls; or that
+  // lattice graded to the target diameter (resolution::graded_lattice; a particle of diameter h kept
+  // at ≥ h/2).
+  const auto keep = [&](const vec<2>& x, double h) {
+    return walls.signed_distance(x) >= 0.5 * h * (1.0 - 1e-12);
+  };
   std::vector<vec<2>> pts;
   std::vector<double> vol;
   if (c.graded_start) {
     const auto& tf = p.resolution.target_diameter;
-    if (!tf) fail("run_multi_diameter: graded_start needs params.resolution.target_diameter (refine_narrow_section)");
+    if (!tf)
+      fail(
+          "run_multi_diameter: graded_start needs params.resolution.target_diameter (refine_narrow_section)");
     auto g = resolution::graded_lattice(
         vec<2>(0.0, -std::ceil(a / L) * L), vec<2>(ell, a), L,
-        [&](const vec<2>& x) { return tf(tf.point(x, [&](const vec<2>& y) { return walls.signed_distance(y); })); },
+        [&](const vec<2>& x) {
+          return tf(tf.point(x, [&](const vec<2>& y) { return walls.signed_distance(y); }));
+        },
         keep);
     pts = std::move(g.x);
     vol = std::move(g.volume);
@@ -199,8 +208,10 @@ inline multi_diameter_setup make_multi_diameter(const multi_diameter_config& c) 
 template <class Scene = multi_diameter_scene>
 multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   if (!(c.L > 0.0) || !(c.window > 0.0) || !(c.t_end > c.window))
-    fail("run_multi_diameter: need L > 0 and t_end > window > 0 (the balance is averaged over the last `window` ",
-         "seconds); got L = ", c.L, ", t_end = ", c.t_end, ", window = ", c.window);
+    fail(
+        "run_multi_diameter: need L > 0 and t_end > window > 0 (the balance is averaged over the last "
+        "`window` ",
+        "seconds); got L = ", c.L, ", t_end = ", c.t_end, ", window = ", c.window);
   c.pieces.validate("run_multi_diameter");
   const double ell = 3 * c.section, L = c.L;
   multi_diameter_setup su = make_multi_diameter(c);
@@ -217,11 +228,11 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   bool in_window = false;  // the averaging window: |u| also goes to u_max_window
   piece_clock clock(c.pieces);
   const auto wall = [&] { return clock.wall(); };
-  // The running measurements, saved beside the simulation in a checkpoint (section "multi_diameter.measures", after
-  // the configuration's L, t_end and window).
+  // The running measurements, saved beside the simulation in a checkpoint (section "multi_diameter.measures",
+  // after the configuration's L, t_end and window).
   measure_list measures;
-  measures(V0)(qin)(qout)(samples)(v_begin)(t_begin)(in_window)(r.p_min)(r.p_max)(r.p_min_at[0])(r.p_min_at[1])(
-      r.p_max_at[0])(r.p_max_at[1])(r.p_min_t)(r.p_max_t)(r.u_max)(r.u_max_window)(r.particles)
+  measures(V0)(qin)(qout)(samples)(v_begin)(t_begin)(in_window)(r.p_min)(r.p_max)(r.p_min_at[0])(
+      r.p_min_at[1])(r.p_max_at[0])(r.p_max_at[1])(r.p_min_t)(r.p_max_t)(r.u_max)(r.u_max_window)(r.particles)
       .add([&] { return wall_before + wall(); }, [&](double w) { wall_before = w; });
   const std::string& resume = c.pieces.resume;
   if (!resume.empty()) {
@@ -229,10 +240,11 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
     io::load_simulation(resume, sim, &sec);
     const std::vector<double> m = sec.get_doubles("multi_diameter.measures");
     if (m.size() != 3 + measures.size())
-      fail("run_multi_diameter: '", resume, "': section 'multi_diameter.measures' holds ", m.size(), " values");
+      fail("run_multi_diameter: '", resume, "': section 'multi_diameter.measures' holds ", m.size(),
+           " values");
     if (m[0] != L || m[1] != c.t_end || m[2] != c.window)
-      fail("run_multi_diameter: '", resume, "' was written with L = ", m[0], " m, t_end = ", m[1], " s, window = ", m[2],
-           " s; this run has ", L, ", ", c.t_end, ", ", c.window);
+      fail("run_multi_diameter: '", resume, "' was written with L = ", m[0], " m, t_end = ", m[1],
+           " s, window = ", m[2], " s; this run has ", L, ", ", c.t_end, ", ", c.window);
     measures.assign(m, 3);
     r.resumed_at = sim.time();
   }

@@ -1,8 +1,8 @@
 #pragma once
-// Start-up flow in a circular pipe (validation-cases.md D1, "Axisymmetric pipe": Szymanski 1932) with Tanaka's
-// LSMPS scheme in 3D: a pipe of radius R along z, its wall a triangulated cylinder (wall::imaginary, copies
-// with the curvature diameter of eq. 76), periodic along z through the search, driven from rest by the body
-// force G/ρ. Measured: ring-averaged axial velocity against the series at probe times.
+// Start-up flow in a circular pipe (validation-cases.md D1, "Axisymmetric pipe": Szymanski 1932) with
+// Tanaka's LSMPS scheme in 3D: a pipe of radius R along z, its wall a triangulated cylinder (wall::imaginary,
+// copies with the curvature diameter of eq. 76), periodic along z through the search, driven from rest by the
+// body force G/ρ. Measured: ring-averaged axial velocity against the series at probe times.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,11 +16,12 @@ namespace mpskit::cases {
 /// The scene: LSMPS defaults in 3D without free-surface detection.
 struct pipe_scene : lsmps_defaults<3> {
   using surface = mpskit::scheme::no_surface;
-  using solver = mpskit::ppe::bicgstab;  // ILUT: BiCGSTAB-Jacobi diverged on the left-null-vector solve (3D, pinned)
+  using solver =
+      mpskit::ppe::bicgstab;  // ILUT: BiCGSTAB-Jacobi diverged on the left-null-vector solve (3D, pinned)
 };
 
-/// u(r, t) = G/(4μ)(R² − r²) − (2 G R²/μ) Σ_k J0(α_k r/R) / (α_k³ J1(α_k)) exp(−α_k² ν t / R²), α_k the zeros of
-/// J0 (validation-cases.md D1).
+/// u(r, t) = G/(4μ)(R² − r²) − (2 G R²/μ) Σ_k J0(α_k r/R) / (α_k³ J1(α_k)) exp(−α_k² ν t / R²), α_k the zeros
+/// of J0 (validation-cases.md D1).
 struct pipe_exact {
   double G = 1000.0, R = 0.005, mu = 0.1, rho = 1000.0;
   double u_max() const { return G * R * R / (4.0 * mu); }  ///< steady centre velocity
@@ -50,13 +51,13 @@ struct pipe_exact {
 
 /// Set-up.
 struct pipe_config {
-  double R = 0.005;          ///< pipe radius (m)
-  int per_radius = 8;        ///< particles per radius (issue #8: 8), L = R / per_radius
-  int length_in_L = 10;      ///< period along z in L (> 2 R_e (1 + skin) L′/L: 8.5 with the curved-wall copies)
+  double R = 0.005;      ///< pipe radius (m)
+  int per_radius = 8;    ///< particles per radius (issue #8: 8), L = R / per_radius
+  int length_in_L = 10;  ///< period along z in L (> 2 R_e (1 + skin) L′/L: 8.5 with the curved-wall copies)
   double G = 1000.0, rho = 1000.0, mu = 0.1;  ///< as the 2D channel
-  int segments = 64;         ///< cylinder facets around the circumference
-  double t_end = 0.2;        ///< run end (s)
-  std::vector<double> probe_times{0.05};  ///< also compared at t_end
+  int segments = 64;                          ///< cylinder facets around the circumference
+  double t_end = 0.2;                         ///< run end (s)
+  std::vector<double> probe_times{0.05};      ///< also compared at t_end
   scheme::lsmps_params<3> params{};
 };
 

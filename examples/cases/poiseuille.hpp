@@ -39,9 +39,9 @@ struct poiseuille_pressure_multires_scene : poiseuille_pressure_scene {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// Tanaka A2's layout (§5.2, Fig. 9; the function is ours, the figure is not in the text): L* = Lf within 1.5 mm of
-/// a wall, a linear ramp to 1.05 Lc at 3.5 mm (the coarse Lc kept in the centre; 1.05 so that Lc does not merge),
-/// for a channel with walls at y = 0 and y = H.
+/// Tanaka A2's layout (§5.2, Fig. 9; the function is ours, the figure is not in the text): L* = Lf within
+/// 1.5 mm of a wall, a linear ramp to 1.05 Lc at 3.5 mm (the coarse Lc kept in the centre; 1.05 so that Lc
+/// does not merge), for a channel with walls at y = 0 and y = H.
 inline std::function<double(const vec<2>&)> a2_target(double H, double Lf, double Lc) {
   return [=](const vec<2>& x) {
     const double d = std::min(x[1], H - x[1]);
@@ -65,7 +65,8 @@ struct poiseuille_exact {
     const double pi = std::numbers::pi, nu = mu / rho;
     double sum = 0.0;
     for (int n = 1; n < 20001; n += 2) {
-      const double term = std::sin(n * pi * y / H) / (double(n) * n * n) * std::exp(-n * n * pi * pi * nu * t / (H * H));
+      const double term =
+          std::sin(n * pi * y / H) / (double(n) * n * n) * std::exp(-n * n * pi * pi * nu * t / (H * H));
       sum += term;
       if (std::abs(1.0 / (double(n) * n * n)) * std::exp(-n * n * pi * pi * nu * t / (H * H)) < 1e-16) break;
     }
@@ -87,11 +88,11 @@ struct poiseuille_config {
   /// give the target diameter (boundary::pressure_boundary's spacing constructor).
   std::function<double(const vec<2>&)> boundary_spacing;
   std::vector<double> probe_times{0.05, 0.1};  ///< times at which the transient is compared with the series
-  /// Start from the L lattice graded to params.resolution.target_diameter (resolution::graded_lattice) instead of
-  /// the L lattice, which a multi-resolution scene would split in its first steps (docs/resolution.md, "Graded
-  /// start"). Flow along x only (axis 0).
+  /// Start from the L lattice graded to params.resolution.target_diameter (resolution::graded_lattice)
+  /// instead of the L lattice, which a multi-resolution scene would split in its first steps
+  /// (docs/resolution.md, "Graded start"). Flow along x only (axis 0).
   bool graded_start = false;
-  int axis = 0;             ///< flow (periodic) axis: 0 = x (walls in y), 1 = y (walls in x; the same channel mirrored)
+  int axis = 0;  ///< flow (periodic) axis: 0 = x (walls in y), 1 = y (walls in x; the same channel mirrored)
   scheme::lsmps_params<2> params{};  ///< scheme numbers (rho, nu, g, domain, Δt are set from the above)
 };
 
@@ -115,9 +116,9 @@ struct poiseuille_result {
   long ppe_iterations = 0;               ///< total solver iterations
   double wall_seconds = 0.0;             ///< wall time of the run
   index_t particles = 0;                 ///< fluid particles
-  index_t particles_end = 0;             ///< fluid particles at t_end (differs with split/merge or in/outflow)
-  double L_min = 0.0, L_max = 0.0;       ///< smallest and largest diameter V^(1/2) at t_end (m)
-  long splits = 0, merges = 0;           ///< resolution events (scenes with split_merge)
+  index_t particles_end = 0;        ///< fluid particles at t_end (differs with split/merge or in/outflow)
+  double L_min = 0.0, L_max = 0.0;  ///< smallest and largest diameter V^(1/2) at t_end (m)
+  long splits = 0, merges = 0;      ///< resolution events (scenes with split_merge)
 };
 
 /// The channel's walls: two segments y = 0 (normal +y) and y = H (normal −y), extended by `overhang`
@@ -150,24 +151,29 @@ inline scheme::lsmps_state<2> channel_state(double length, double H, double L) {
   return s;
 }
 
-/// The start of a run over [0, length) × [0, H): the L lattice, or with c.graded_start that lattice graded to the
-/// target diameter (a target reading the context gets the wall distance min(y, H − y)). A graded particle must keep
-/// half its diameter from the walls, as split_merge's children do; a layer beside a wall at an odd generation (a
-/// diagonal pair, a quarter cell from the cell's edge: 0.35 of its diameter) does not, and is refused (the channel
-/// would start with a gap at the wall) instead of dropped or kept too close.
+/// The start of a run over [0, length) × [0, H): the L lattice, or with c.graded_start that lattice graded to
+/// the target diameter (a target reading the context gets the wall distance min(y, H − y)). A graded particle
+/// must keep half its diameter from the walls, as split_merge's children do; a layer beside a wall at an odd
+/// generation (a diagonal pair, a quarter cell from the cell's edge: 0.35 of its diameter) does not, and is
+/// refused (the channel would start with a gap at the wall) instead of dropped or kept too close.
 inline scheme::lsmps_state<2> channel_start(const poiseuille_config& c, double length) {
   if (!c.graded_start) return channel_state(length, c.H, c.L);
   const auto& tf = c.params.resolution.target_diameter;
   if (!tf) fail("poiseuille_config: graded_start needs params.resolution.target_diameter");
-  if (c.axis != 0) fail("poiseuille_config: graded_start is for the flow along x (axis 0), got axis ", c.axis);
+  if (c.axis != 0)
+    fail("poiseuille_config: graded_start is for the flow along x (axis 0), got axis ", c.axis);
   const double H = c.H;
   const auto g = resolution::graded_lattice(
       vec<2>(0.0, 0.0), vec<2>(length, H), c.L,
-      [&](const vec<2>& x) { return tf(tf.point(x, [H](const vec<2>& y) { return std::min(y[1], H - y[1]); })); },
+      [&](const vec<2>& x) {
+        return tf(tf.point(x, [H](const vec<2>& y) { return std::min(y[1], H - y[1]); }));
+      },
       [&](const vec<2>& x, double h) { return std::min(x[1], H - x[1]) >= 0.5 * h * (1.0 - 1e-12); });
   if (g.dropped_volume > 0.0)
-    fail("poiseuille_config: the graded start leaves ", g.dropped_volume / (length * H) * 100.0, " % of the channel's volume "
-         "without particles: the target asks for an odd number of splits beside a wall (diagonal pairs closer than "
+    fail("poiseuille_config: the graded start leaves ", g.dropped_volume / (length * H) * 100.0,
+         " % of the channel's volume "
+         "without particles: the target asks for an odd number of splits beside a wall (diagonal pairs "
+         "closer than "
          "half their diameter to it); choose a target diameter L / 2^(k/2) with k even there");
   scheme::lsmps_state<2> s(static_cast<index_t>(g.size()));
   for (std::size_t q = 0; q < g.size(); ++q) {
@@ -288,7 +294,8 @@ struct poiseuille_pressure_result : poiseuille_result {
 /// outflow face at x = ℓ (Tanaka §4.5.2), no body force. The profile is measured on the slice
 /// |x − ℓ/2| ≤ 2 L (mid-length).
 template <class Scene = poiseuille_pressure_scene>
-poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const boundary::pressure_params& bp = {}) {
+poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c,
+                                                   const boundary::pressure_params& bp = {}) {
   auto p = c.params;
   p.rho = c.rho;
   p.nu = c.mu / c.rho;
@@ -338,10 +345,10 @@ poiseuille_pressure_result run_poiseuille_pressure(poiseuille_config c, const bo
   r.steady_error = profile_error(sim.state(), ex, c.L, sim.time(), true, 0, lo, hi).max_error;
   record_sizes(sim, r);
   {
-    // The particles nearest the centre line within 2 L of mid-length: those within L/4 of the smallest |y − H/2|
-    // found there (one row, or two rows 0.5 L from the line on a lattice with an even row count). Not a fixed
-    // band around H/2: particles created by inflow sit at the boundary particles' heights, and a band of ±0.5 L
-    // missed them all in the 100 mm channel at 0.5 s (centre 0 printed).
+    // The particles nearest the centre line within 2 L of mid-length: those within L/4 of the smallest |y
+    // − H/2| found there (one row, or two rows 0.5 L from the line on a lattice with an even row count). Not
+    // a fixed band around H/2: particles created by inflow sit at the boundary particles' heights, and a band
+    // of ±0.5 L missed them all in the 100 mm channel at 0.5 s (centre 0 printed).
     const auto& st = sim.state();
     const auto in_window = [&](index_t i) { return std::abs(st.x()(0, i) - 0.5 * ell) < 2.0 * c.L; };
     double dmin = std::numeric_limits<double>::infinity();

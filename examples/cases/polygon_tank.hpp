@@ -37,9 +37,11 @@ struct polygon_tank_config {
     if (dim == 3) v.positive("B", B);
     v.in_range("angle_deg", angle_deg, 30.0, 90.0);
     if (std::isfinite(L) && std::isfinite(H) && std::isfinite(tank_height) && !(tank_height >= H + L))
-      v.require(false, "tank_height", mpskit::detail::concat("is ", tank_height, ", must be >= H + L = ", H + L));
+      v.require(false, "tank_height",
+                mpskit::detail::concat("is ", tank_height, ", must be >= H + L = ", H + L));
     if (std::isfinite(L) && L > 0.0 && !(L <= W && L <= H && (dim == 2 || L <= B)))
-      v.require(false, "L", mpskit::detail::concat("is ", L, ", must be <= min(W, H", dim == 3 ? ", B)" : ")"));
+      v.require(false, "L",
+                mpskit::detail::concat("is ", L, ", must be <= min(W, H", dim == 3 ? ", B)" : ")"));
     v.throw_if_any();
   }
 };
@@ -90,7 +92,9 @@ struct polygon_tank {
     return in;
   }
   /// cot of an angle in degrees, exactly 0 at 90°.
-  static double cot_of(double deg) { return deg == 90.0 ? 0.0 : 1.0 / std::tan(deg * std::numbers::pi / 180.0); }
+  static double cot_of(double deg) {
+    return deg == 90.0 ? 0.0 : 1.0 / std::tan(deg * std::numbers::pi / 180.0);
+  }
 };
 
 namespace detail {
@@ -128,7 +132,8 @@ inline geometry::polygon_mesh<3> tank_mesh_3d(const polygon_tank_config& c, std:
   m.vertices.resize(3, 8);
   for (int k = 0; k < 4; ++k) {
     m.vertices.col(k) = vec<3>(q[static_cast<std::size_t>(k)].x(), 0.0, q[static_cast<std::size_t>(k)].y());
-    m.vertices.col(4 + k) = vec<3>(q[static_cast<std::size_t>(k)].x(), c.B, q[static_cast<std::size_t>(k)].y());
+    m.vertices.col(4 + k) =
+        vec<3>(q[static_cast<std::size_t>(k)].x(), c.B, q[static_cast<std::size_t>(k)].y());
   }
   std::vector<std::array<index_t, 3>> tri;
   const int sides = c.lid ? 4 : 3;
@@ -159,8 +164,8 @@ inline geometry::polygon_mesh<3> tank_mesh_3d(const polygon_tank_config& c, std:
 /// signed distance to the walls is ≥ L/2 (a 1e-12 L rounding allowance for points exactly L/2 from a
 /// wall, e.g. the first row above a lattice-aligned floor). No wall particles: the walls are polygons.
 template <int D>
-points<D> fill_half_spacing(const geometry::polygon_set<D>& walls, const vec<D>& lo, const vec<D>& hi, double L,
-                            const vec<D>& origin = vec<D>::Zero()) {
+points<D> fill_half_spacing(const geometry::polygon_set<D>& walls, const vec<D>& lo, const vec<D>& hi,
+                            double L, const vec<D>& origin = vec<D>::Zero()) {
   const wall::particle_block<D> b = wall::polygon_fill<D>(walls, lo, hi, L, origin);
   std::vector<std::size_t> keep;
   for (std::size_t k = 0; k < b.size(); ++k)
@@ -193,9 +198,11 @@ polygon_tank<D> make_polygon_tank(const polygon_tank_config& c = {}) {
   hi[D - 1] = c.H;
   if constexpr (D == 3) hi[1] = c.B;
   points<D> x = fill_half_spacing<D>(walls, lo, hi, c.L);
-  if (x.cols() == 0) fail("make_polygon_tank: no fluid particle fits (L = ", c.L, ", H = ", c.H, ", W = ", c.W, ")");
+  if (x.cols() == 0)
+    fail("make_polygon_tank: no fluid particle fits (L = ", c.L, ", H = ", c.H, ", W = ", c.W, ")");
   polygon_tank<D> t{c, std::move(walls), std::move(faces), std::move(x), c.L, c.H, 0.0};
-  // z_s from W z + z² cot θ / 2 = A (A = N L^D, divided by B in 3D); the stable root 2A/(W + √(W² + 2A cot θ)).
+  // z_s from W z + z² cot θ / 2 = A (A = N L^D, divided by B in 3D); the stable root 2A/(W + √(W² + 2A cot
+  // θ)).
   const double A = static_cast<double>(t.size()) * std::pow(c.L, D) / (D == 3 ? c.B : 1.0);
   t.surface_height = 2.0 * A / (c.W + std::sqrt(c.W * c.W + 2.0 * A * ct));
   return t;

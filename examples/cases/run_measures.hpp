@@ -1,7 +1,8 @@
 #pragma once
-// What the runners measure during a run: the fluid volume, the velocity flux through a slab, the extreme fluid
-// pressures and speeds with where and when (channels, gears), a pressure probe's first impact (dam breaks), and the
-// closest pair of particles (clustering), and a trace of the fastest particle's neighbourhood (failures).
+// What the runners measure during a run: the fluid volume, the velocity flux through a slab, the extreme
+// fluid pressures and speeds with where and when (channels, gears), a pressure probe's first impact (dam
+// breaks), and the closest pair of particles (clustering), and a trace of the fastest particle's
+// neighbourhood (failures).
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -38,15 +39,15 @@ void record_sizes(const Sim& sim, Result& r) {
   r.merges = sim.counters().merges;
 }
 
-/// The closest pairs of real particles (issue #9's clustering measure r_ij / L_ij, L_ij = (L_i + L_j)/2, diameters
-/// V^(1/D)), over pairs closer than 1.5 L_ij; +1e300 when no pair is that close.
+/// The closest pairs of real particles (issue #9's clustering measure r_ij / L_ij, L_ij = (L_i + L_j)/2,
+/// diameters V^(1/D)), over pairs closer than 1.5 L_ij; +1e300 when no pair is that close.
 struct pair_ratios {
   double all = 1e300;           ///< every pair (the strict reading of the issue's bound)
   double non_isolated = 1e300;  ///< pairs of which neither particle carries flag::isolated (spray left out)
 };
 
-/// Both readings of the clustering measure at once (pair_ratios). Builds its own list (sequential); the isolated
-/// flags are the ones the last step set.
+/// Both readings of the clustering measure at once (pair_ratios). Builds its own list (sequential); the
+/// isolated flags are the ones the last step set.
 template <class State, int D>
 pair_ratios min_pair_ratios(const State& st, const search::domain<D>& dom) {
   const index_t n = st.n_real();
@@ -80,7 +81,8 @@ double fluid_volume(const State& st) {
   return st.template get<field::volume>().head(st.n_real()).sum();
 }
 
-/// Velocity flux through the slab |x_0 − x0| < h across axis 0: Σ V u_x / (2 h) over the real particles in it.
+/// Velocity flux through the slab |x_0 − x0| < h across axis 0: Σ V u_x / (2 h) over the real particles in
+/// it.
 template <class State>
 double slab_flux(const State& st, double x0, double h) {
   const auto& V = st.template get<field::volume>();
@@ -91,8 +93,8 @@ double slab_flux(const State& st, double x0, double h) {
 }
 
 /// Updates r.p_min / r.p_max (and their _at position and _t time), r.u_max (and u_max_at / u_max_t when the
-/// result has them) and, inside the averaging window, r.u_max_window, from the real particles of `st` at time t.
-/// Start a run with r.p_min = +1e300 and r.p_max = −1e300.
+/// result has them) and, inside the averaging window, r.u_max_window, from the real particles of `st` at time
+/// t. Start a run with r.p_min = +1e300 and r.p_max = −1e300.
 template <class Result, class State>
 void track_extremes(Result& r, const State& st, double t, bool in_window) {
   const auto& P = st.template get<field::pressure>();
@@ -120,9 +122,9 @@ void track_extremes(Result& r, const State& st, double t, bool in_window) {
 }
 
 /// The channel runners' end of run: event counts from the stepper's counters k (steps, pressure-boundary
-/// creations and removals, removals behind a face, guard activations, splits, merges), the volume ledger's error
-/// |V_end − V0 − (inflow − outflow volume)| / V0, and the final particle count and smallest / largest diameter
-/// (V^(1/2), 2D) of the real particles of st.
+/// creations and removals, removals behind a face, guard activations, splits, merges), the volume ledger's
+/// error |V_end − V0 − (inflow − outflow volume)| / V0, and the final particle count and smallest / largest
+/// diameter (V^(1/2), 2D) of the real particles of st.
 template <class Result, class Counters, class State>
 void record_channel_end(Result& r, const Counters& k, const State& st, double V0) {
   const auto V = st.template get<field::volume>().head(st.n_real());
@@ -143,29 +145,32 @@ void record_channel_end(Result& r, const Counters& k, const State& st, double V0
 
 /// A pressure probe's first impact, from its time series sampled every step (measure_impact).
 struct impact_measures {
-  double t_arrival = std::numeric_limits<double>::quiet_NaN();  ///< first sample with a value (the probe wet), s
-  double window = 0.0;          ///< length of the impact window [t_arrival, t_arrival + window], s
-  bool complete = false;        ///< the series reaches the window's end (else the numbers are partial)
-  double impulse = 0.0;         ///< ∫ p dt over the window (trapezoids; dry samples count 0), Pa s
-  double peak = std::numeric_limits<double>::quiet_NaN();           ///< largest sample in the window, Pa
-  double t_peak = std::numeric_limits<double>::quiet_NaN();         ///< its time, s
-  double peak_filtered = std::numeric_limits<double>::quiet_NaN();  ///< largest centred moving average, Pa
+  /// first sample with a value (the probe wet), s
+  double t_arrival = std::numeric_limits<double>::quiet_NaN();
+  double window = 0.0;    ///< length of the impact window [t_arrival, t_arrival + window], s
+  bool complete = false;  ///< the series reaches the window's end (else the numbers are partial)
+  double impulse = 0.0;   ///< ∫ p dt over the window (trapezoids; dry samples count 0), Pa s
+  double peak = std::numeric_limits<double>::quiet_NaN();             ///< largest sample in the window, Pa
+  double t_peak = std::numeric_limits<double>::quiet_NaN();           ///< its time, s
+  double peak_filtered = std::numeric_limits<double>::quiet_NaN();    ///< largest centred moving average, Pa
   double t_peak_filtered = std::numeric_limits<double>::quiet_NaN();  ///< its time, s
-  double peak_sparse = std::numeric_limits<double>::quiet_NaN();    ///< largest of every `every`-th step's sample, Pa
+  /// largest of every `every`-th step's sample, Pa
+  double peak_sparse = std::numeric_limits<double>::quiet_NaN();
 };
 
-/// The first impact of a probe series (t_k, p_k), one sample per step, p_k NaN while the probe is dry: arrival
-/// = the first finite sample; impulse = ∫ p dt over [t_arrival, t_arrival + window] (trapezoids, dry samples as
-/// 0); peak = the largest sample there; peak_filtered = the largest centred moving average over `filter` s
-/// ((C(t + f/2) − C(t − f/2))/f with C the trapezoid integral, linear between samples; only centres whose
-/// average lies inside the series); peak_sparse = the largest sample at steps that are multiples of `every`
-/// (step k of the series is step k + 1 of the run), inside the window: Tanaka sampled every 100 steps (§5.6.1).
-/// A series that never gets wet gives NaN numbers; t must increase.
-inline impact_measures measure_impact(const std::vector<double>& t, const std::vector<double>& p, double window,
-                                      double filter, long every = 100) {
+/// The first impact of a probe series (t_k, p_k), one sample per step, p_k NaN while the probe is dry:
+/// arrival = the first finite sample; impulse = ∫ p dt over [t_arrival, t_arrival + window] (trapezoids, dry
+/// samples as 0); peak = the largest sample there; peak_filtered = the largest centred moving average over
+/// `filter` s ((C(t + f/2) − C(t − f/2))/f with C the trapezoid integral, linear between samples; only
+/// centres whose average lies inside the series); peak_sparse = the largest sample at steps that are
+/// multiples of `every` (step k of the series is step k + 1 of the run), inside the window: Tanaka sampled
+/// every 100 steps (§5.6.1). A series that never gets wet gives NaN numbers; t must increase.
+inline impact_measures measure_impact(const std::vector<double>& t, const std::vector<double>& p,
+                                      double window, double filter, long every = 100) {
   if (t.size() != p.size()) fail("measure_impact: ", t.size(), " times but ", p.size(), " values");
   if (!(window > 0.0) || !(filter > 0.0) || every < 1)
-    fail("measure_impact: window = ", window, " s and filter = ", filter, " s must be > 0, every = ", every, " >= 1");
+    fail("measure_impact: window = ", window, " s and filter = ", filter, " s must be > 0, every = ", every,
+         " >= 1");
   for (std::size_t k = 1; k < t.size(); ++k)
     if (!(t[k] > t[k - 1])) fail("measure_impact: times not increasing at sample ", k);
   impact_measures m;
@@ -179,7 +184,8 @@ inline impact_measures measure_impact(const std::vector<double>& t, const std::v
   const auto val = [&](std::size_t k) { return std::isfinite(p[k]) ? p[k] : 0.0; };
   // C_k = ∫_{t_0}^{t_k} p dt; C at any time by linear interpolation (the filter's integral).
   std::vector<double> C(t.size(), 0.0);
-  for (std::size_t k = 1; k < t.size(); ++k) C[k] = C[k - 1] + 0.5 * (val(k) + val(k - 1)) * (t[k] - t[k - 1]);
+  for (std::size_t k = 1; k < t.size(); ++k)
+    C[k] = C[k - 1] + 0.5 * (val(k) + val(k - 1)) * (t[k] - t[k - 1]);
   const auto C_at = [&](double s) {
     const auto it = std::upper_bound(t.begin(), t.end(), s);
     if (it == t.begin()) return C.front();
@@ -208,13 +214,13 @@ inline impact_measures measure_impact(const std::vector<double>& t, const std::v
 }
 
 /// Writes the fastest fluid particle of an LSMPS simulation's last step and every particle within its support
-/// radius R_e = re_ratio L_i (fluid and imaginary wall copies, with each copy's parent) to `out`, when its speed
-/// exceeds `speed` (m/s); returns whether it wrote. For finding where a run starts to fail (the error of a
-/// collapsed time step names only the particle): offsets in L_i, pressures in units of `p_unit` (e.g. ρgH),
-/// c the packing ratio of that step, s the surface flag. The neighbours are found by a full scan (O(N) per
-/// call; offsets by the step's list's minimum image on periodic axes): meant for the few steps after a
-/// threshold is first crossed. Positions are those after the step; the
-/// copies are the step's (made before the move).
+/// radius R_e = re_ratio L_i (fluid and imaginary wall copies, with each copy's parent) to `out`, when its
+/// speed exceeds `speed` (m/s); returns whether it wrote. For finding where a run starts to fail (the error
+/// of a collapsed time step names only the particle): offsets in L_i, pressures in units of `p_unit` (e.g.
+/// ρgH), c the packing ratio of that step, s the surface flag. The neighbours are found by a full scan (O(N)
+/// per call; offsets by the step's list's minimum image on periodic axes): meant for the few steps after a
+/// threshold is first crossed. Positions are those after the step; the copies are the step's (made before the
+/// move).
 template <class Sim>
 bool trace_fast_particle(std::ostream& out, const Sim& sim, double speed, double p_unit, double T) {
   const auto& st = sim.state();
@@ -236,7 +242,8 @@ bool trace_fast_particle(std::ostream& out, const Sim& sim, double speed, double
     for (int a = 1; a < d.size(); ++a) out << ", " << d[a] / L;
     out << ")  u (" << st.u()(0, j);
     for (int a = 1; a < st.x().rows(); ++a) out << ", " << st.u()(a, j);
-    out << ") m/s  p " << P[j] / p_unit << "  c " << packing(j) << "  s " << ((st.flags()[j] & flag::surface) != 0);
+    out << ") m/s  p " << P[j] / p_unit << "  c " << packing(j) << "  s "
+        << ((st.flags()[j] & flag::surface) != 0);
     if (j >= n) out << "  parent " << parent[static_cast<std::size_t>(j)];
     out << '\n';
   };

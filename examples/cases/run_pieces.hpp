@@ -1,6 +1,6 @@
 #pragma once
-// Long runs in pieces through a checkpoint (io/lsmps_checkpoint.hpp), shared by the cases that run for hours at the
-// papers' sizes: the multi-diameter channel (cases/multi_diameter_channel.hpp) and Tanaka's dam break
+// Long runs in pieces through a checkpoint (io/lsmps_checkpoint.hpp), shared by the cases that run for hours
+// at the papers' sizes: the multi-diameter channel (cases/multi_diameter_channel.hpp) and Tanaka's dam break
 // (cases/tanaka_dam_break_run.hpp). docs/run.md "Checkpoint and restart".
 #include <chrono>
 #include <cmath>
@@ -21,16 +21,19 @@
 namespace mpskit::cases {
 
 /// Where and when a run writes its checkpoint. With `checkpoint` set, the run is written there every
-/// `checkpoint_interval` wall seconds (> 0; 0: only at the end) and when it reaches its end; `stop_after` > 0 ends
-/// the run after that many wall seconds of this process (after at least one step), checkpoint written, result
-/// partial. `resume` names such a file to continue from (each case says what it checks).
+/// `checkpoint_interval` wall seconds (> 0; 0: only at the end) and when it reaches its end; `stop_after` > 0
+/// ends the run after that many wall seconds of this process (after at least one step), checkpoint written,
+/// result partial. `resume` names such a file to continue from (each case says what it checks).
 struct run_pieces {
   std::string checkpoint, resume;
   double checkpoint_interval = 0.0, stop_after = 0.0;
-  /// Refuses intervals and stop times without a file, and negative or non-finite ones (`who` names the caller).
+  /// Refuses intervals and stop times without a file, and negative or non-finite ones (`who` names the
+  /// caller).
   void validate(const char* who) const {
     if (checkpoint.empty() && (checkpoint_interval != 0.0 || stop_after != 0.0))
-      fail(who, ": checkpoint_interval (--every) and stop_after (--stop-after) need a checkpoint file (--checkpoint)");
+      fail(who,
+           ": checkpoint_interval (--every) and stop_after (--stop-after) need a checkpoint file "
+           "(--checkpoint)");
     if (!(checkpoint_interval >= 0.0 && std::isfinite(checkpoint_interval)) ||
         !(stop_after >= 0.0 && std::isfinite(stop_after)))
       fail(who, ": checkpoint_interval (", checkpoint_interval, " s) and stop_after (", stop_after,
@@ -38,17 +41,20 @@ struct run_pieces {
   }
 };
 
-/// The wall clock of one piece: when to write the checkpoint and when to stop. It counts from its construction,
-/// which the runners place before a resumed file is loaded (the load is part of the piece's wall time).
+/// The wall clock of one piece: when to write the checkpoint and when to stop. It counts from its
+/// construction, which the runners place before a resumed file is loaded (the load is part of the piece's
+/// wall time).
 class piece_clock {
  public:
   explicit piece_clock(const run_pieces& p) : p_(p), t0_(std::chrono::steady_clock::now()) {}
   piece_clock(run_pieces&&) = delete;  // keeps a reference: not to a temporary
   /// Wall seconds of this process's piece.
-  double wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+  double wall() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  }
   /// After a step's measurements: calls `save()` when the interval has passed, and when this piece has run
-  /// stop_after seconds and the run has not reached its end (`more`) saves and returns true (stop). Nothing without a
-  /// checkpoint file.
+  /// stop_after seconds and the run has not reached its end (`more`) saves and returns true (stop). Nothing
+  /// without a checkpoint file.
   template <class Save>
   bool after_step(Save&& save, bool more) {
     if (p_.checkpoint.empty()) return false;
@@ -74,9 +80,9 @@ class piece_clock {
   double last_save_ = 0.0;
 };
 
-/// A run's scalar measurements as one ordered list of places, written to a checkpoint section and read back in the
-/// same order (so the order is stated once). Integers and flags are stored as doubles: an integer beyond 2^53 in
-/// magnitude, which a double would round, is refused when written, not stored rounded.
+/// A run's scalar measurements as one ordered list of places, written to a checkpoint section and read back
+/// in the same order (so the order is stated once). Integers and flags are stored as doubles: an integer
+/// beyond 2^53 in magnitude, which a double would round, is refused when written, not stored rounded.
 class measure_list {
  public:
   measure_list& operator()(double& v) {
@@ -98,10 +104,12 @@ class measure_list {
               constexpr auto exact = std::uint64_t{1} << 53;
               bool fits = true;
               if constexpr (std::is_signed_v<I>)
-                fits = v >= 0 ? static_cast<std::uint64_t>(v) <= exact : static_cast<std::uint64_t>(-(v + 1)) < exact;
+                fits = v >= 0 ? static_cast<std::uint64_t>(v) <= exact
+                              : static_cast<std::uint64_t>(-(v + 1)) < exact;
               else
                 fits = static_cast<std::uint64_t>(v) <= exact;
-              if (!fits) fail("measure_list: the integer ", v, " is beyond 2^53 and would be rounded as a double");
+              if (!fits)
+                fail("measure_list: the integer ", v, " is beyond 2^53 and would be rounded as a double");
             }
             return static_cast<double>(v);
           },
@@ -113,7 +121,8 @@ class measure_list {
             v = static_cast<I>(x);
           });
   }
-  /// A value written and read through functions (e.g. the wall time: the earlier pieces' plus this piece's so far).
+  /// A value written and read through functions (e.g. the wall time: the earlier pieces' plus this piece's so
+  /// far).
   measure_list& add(std::function<double()> get, std::function<void(double)> set) {
     places_.emplace_back(std::move(get), std::move(set));
     return *this;
@@ -134,10 +143,12 @@ class measure_list {
   /// Writes the values as section `name`.
   void save(io::checkpoint_sections& s, std::string name) const { s.add_doubles(std::move(name), values()); }
   /// Reads section `name` (refused, naming `who` and `file`, unless it holds exactly `size()` values).
-  void load(const io::checkpoint_sections& s, const std::string& name, const char* who, const std::string& file) const {
+  void load(const io::checkpoint_sections& s, const std::string& name, const char* who,
+            const std::string& file) const {
     const std::vector<double> m = s.get_doubles(name);
     if (m.size() != places_.size())
-      fail(who, ": '", file, "': section '", name, "' holds ", m.size(), " values, expected ", places_.size());
+      fail(who, ": '", file, "': section '", name, "' holds ", m.size(), " values, expected ",
+           places_.size());
     assign(m);
   }
 
@@ -145,28 +156,31 @@ class measure_list {
   std::vector<std::pair<std::function<double()>, std::function<void(double)>>> places_;
 };
 
-/// Equal-length sample vectors as one section of doubles, one after the other (a front's T, Z, ...); refused when
-/// there are none or their lengths differ.
+/// Equal-length sample vectors as one section of doubles, one after the other (a front's T, Z, ...); refused
+/// when there are none or their lengths differ.
 inline void add_columns(io::checkpoint_sections& s, std::string name,
                         std::initializer_list<const std::vector<double>*> columns) {
   if (columns.size() == 0) fail("add_columns: section '", name, "': no columns");
   std::vector<double> v;
   for (const auto* c : columns) {
     if (c->size() != (*columns.begin())->size())
-      fail("add_columns: section '", name, "': columns of ", (*columns.begin())->size(), " and ", c->size(), " values");
+      fail("add_columns: section '", name, "': columns of ", (*columns.begin())->size(), " and ", c->size(),
+           " values");
     v.insert(v.end(), c->begin(), c->end());
   }
   s.add_doubles(std::move(name), v);
 }
 
-/// Reads a section written by add_columns into `columns` (refused unless its length is a multiple of their number;
-/// `who` and `file` name the caller and the checkpoint in the message).
+/// Reads a section written by add_columns into `columns` (refused unless its length is a multiple of their
+/// number; `who` and `file` name the caller and the checkpoint in the message).
 inline void get_columns(const io::checkpoint_sections& s, const std::string& name,
-                        std::initializer_list<std::vector<double>*> columns, const char* who, const std::string& file) {
+                        std::initializer_list<std::vector<double>*> columns, const char* who,
+                        const std::string& file) {
   if (columns.size() == 0) fail(who, ": section '", name, "': no columns to read");
   const std::vector<double> v = s.get_doubles(name);
   if (v.size() % columns.size() != 0)
-    fail(who, ": '", file, "': section '", name, "' holds ", v.size(), " values, not a multiple of ", columns.size());
+    fail(who, ": '", file, "': section '", name, "' holds ", v.size(), " values, not a multiple of ",
+         columns.size());
   const auto n = static_cast<std::ptrdiff_t>(v.size() / columns.size());
   auto from = v.begin();
   for (auto* c : columns) {

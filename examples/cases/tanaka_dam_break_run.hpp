@@ -2,8 +2,8 @@
 // Runs Tanaka's dam break (cases/tanaka_dam_break.hpp, §5.6.1) with the LSMPS scheme: front samples every
 // 0.05 in T = t √(2g/h0), the pressure at the probe (195, 5) mm every step, the lowest fluid (and copy)
 // pressure, the closest fluid pair (every step), counters and wall time. Shared by the test label
-// dam_break_lsmps and the speed-against-error reporter (benchmarks/report_dam_break.cpp). Long runs go in pieces
-// through a checkpoint (tanaka_pieces; label restart).
+// dam_break_lsmps and the speed-against-error reporter (benchmarks/report_dam_break.cpp). Long runs go in
+// pieces through a checkpoint (tanaka_pieces; label restart).
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>
@@ -28,12 +28,13 @@ namespace mpskit::cases {
 struct tanaka_run_counts {
   long steps = 0, guarded = 0;
   long active_set_rows = 0, active_set_unfinished = 0;  ///< lsmps_params::active_set_solves (counters)
-  long collisions = 0;              ///< colliding pairs of the collision stage (lsmps_params::collision)
-  long left_domain = 0;             ///< particles removed over the side walls (tanaka_dam_break_config::remove_outside)
-  long active_set_solves = 0;       ///< PPE solves repeated by the active set (lsmps_counters::active_set_solves)
-  /// The solve ledger: pressure solves and the ILUT / ILU(0) factorisations among them (lsmps_counters::ppe_solves,
-  /// ppe_factorisations; 0 factorisations for BiCGSTAB-Jacobi), and lagged-factor solves repeated with fresh factors
-  /// (lsmps_counters::ppe_lagged_retries, solver_params::ilut_reuse).
+  long collisions = 0;   ///< colliding pairs of the collision stage (lsmps_params::collision)
+  long left_domain = 0;  ///< particles removed over the side walls (tanaka_dam_break_config::remove_outside)
+  long active_set_solves = 0;  ///< PPE solves repeated by the active set (lsmps_counters::active_set_solves)
+  /// The solve ledger: pressure solves and the ILUT / ILU(0) factorisations among them
+  /// (lsmps_counters::ppe_solves, ppe_factorisations; 0 factorisations for BiCGSTAB-Jacobi), and
+  /// lagged-factor solves repeated with fresh factors (lsmps_counters::ppe_lagged_retries,
+  /// solver_params::ilut_reuse).
   long ppe_solves = 0, ppe_factorisations = 0, ppe_lagged_retries = 0;
   /// Copies them from the scheme's counters (scheme::lsmps_counters).
   template <class Counters>
@@ -53,10 +54,13 @@ struct tanaka_run_counts {
 
 /// What one run measured.
 struct tanaka_dam_break_result : tanaka_run_counts {
-  std::vector<double> T, Z;     ///< front samples h* (Z) at T = t* every 0.05 (the first at or after each multiple)
-  /// The same front over the largest connected body only (io::largest_body, link 1.5): spray clusters left out.
+  std::vector<double> T,
+      Z;  ///< front samples h* (Z) at T = t* every 0.05 (the first at or after each multiple)
+  /// The same front over the largest connected body only (io::largest_body, link 1.5): spray clusters left
+  /// out.
   std::vector<double> Z_body;
-  std::vector<double> probe_t, probe_p;  ///< time (s) and pressure (Pa) at the probe after every step; NaN: dry
+  std::vector<double> probe_t,
+      probe_p;                  ///< time (s) and pressure (Pa) at the probe after every step; NaN: dry
   double p_min = 0.0;           ///< lowest fluid pressure over all steps (Pa)
   double p_min_copies = 0.0;    ///< lowest imaginary-copy pressure (auxiliary unknowns of the wall rows, Pa)
   double rho_g_h = 0.0;         ///< ρ g H of the column (Pa)
@@ -64,29 +68,34 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   index_t particles_end = 0;    ///< fluid particles at the end (differs with splitting and merging)
   double L_min = 0.0;           ///< smallest particle diameter at the end (m; sqrt of the 2D volume)
   long splits = 0, merges = 0;  ///< resolution events (Scene::resolution = split_merge)
-  /// (ΣV at the end + ΣV removed over the side walls) / ΣV at the start − 1: the volume balance (splits and merges
-  /// conserve ΣV, the removal's volume is counted).
+  /// (ΣV at the end + ΣV removed over the side walls) / ΣV at the start − 1: the volume balance (splits and
+  /// merges conserve ΣV, the removal's volume is counted).
   double volume_change = 0.0;
   /// Smallest r_ij / L_ij of fluid pairs after any step (min_pair_ratio: clustering) and T when it occurred.
   double min_pair_ratio = 1e300, T_min_pair = std::numeric_limits<double>::quiet_NaN();
-  double min_pair_ratio_non_isolated = 1e300;  ///< the same over pairs without an isolated particle (spray left out)
-  /// Largest |u| of a real particle after any step (m/s) and T when it occurred (issue #9's explosion measure).
+  /// the same over pairs without an isolated particle (spray left out)
+  double min_pair_ratio_non_isolated = 1e300;
+  /// Largest |u| of a real particle after any step (m/s) and T when it occurred (issue #9's explosion
+  /// measure).
   double u_max = 0.0, T_u_max = std::numeric_limits<double>::quiet_NaN();
   long filtered = 0, ppe_iterations = 0;
-  long filter_amplifying = 0, filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
+  long filter_amplifying = 0,
+       filter_tapered = 0;  ///< band fits left alone / tapered (boundary_filter_params)
   /// own-loop guard (lsmps_params::own_loop): particle-steps checked, made p = 0, with copies' two-point term
   /// dropped; repeated solves
   long own_loop_checked = 0, own_loop_dirichlet = 0, own_loop_one_point = 0, own_loop_solves = 0;
-  long ppe_fallbacks = 0;       ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
+  long ppe_fallbacks = 0;  ///< solves made by the fallback solver (Scene::solver = ppe::with_fallback)
   long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params)
   long ppe_cold_restarts = 0;  ///< warm-started solves repeated from 0 after not converging (solver_params)
-  long shift_velocity_clipped = 0;  ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
-  double left_domain_volume = 0.0;  ///< their ΣV (m²)
-  double wall_seconds = 0.0;    ///< wall time of the time loop (s)
-  bool failed = false;          ///< the scheme threw (only with catch_failure)
+  /// particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
+  long shift_velocity_clipped = 0;
+  double left_domain_volume = 0.0;                             ///< their ΣV (m²)
+  double wall_seconds = 0.0;                                   ///< wall time of the time loop (s)
+  bool failed = false;                                         ///< the scheme threw (only with catch_failure)
   double T_failed = std::numeric_limits<double>::quiet_NaN();  ///< T at the failure
-  std::string failure;          ///< the error's text
-  /// Runs in pieces (tanaka_pieces): stopped at stop_after before T_end, checkpoint written (the numbers so far).
+  std::string failure;                                         ///< the error's text
+  /// Runs in pieces (tanaka_pieces): stopped at stop_after before T_end, checkpoint written (the numbers so
+  /// far).
   bool stopped = false;
   double T_reached = 0.0;            ///< T at the end of this piece
   double resumed_at = -1.0;          ///< T the run was resumed from (< 0: not resumed)
@@ -94,38 +103,62 @@ struct tanaka_dam_break_result : tanaka_run_counts {
 };
 
 /// Long runs in pieces (cases/run_pieces.hpp). The checkpoint holds the particles, the scheme's state and the
-/// runner's running measurements (front and probe samples, extremes, the wall time so far); it is written once
-/// before the first step (a bad path or a reserved section name is refused at once, not after hours), then as
-/// run_pieces says. A resumed file must have this case configuration (every field of tanaka_dam_break_config,
-/// compared bitwise; refused otherwise); T_end may differ (a run can be extended; a file at or beyond T_end is
-/// refused: nothing to run); the scheme options are the caller's to keep the same. A run that fails writes no
-/// checkpoint (the last one written stays); a checkpoint that cannot be written throws, with catch_failure too (it
-/// is not the scheme's failure). Resumed with the same options,
-/// the run is bitwise the uninterrupted one (label restart) when the solver keeps no factorisation across steps
+/// runner's running measurements (front and probe samples, extremes, the wall time so far); it is written
+/// once before the first step (a bad path or a reserved section name is refused at once, not after hours),
+/// then as run_pieces says. A resumed file must have this case configuration (every field of
+/// tanaka_dam_break_config, compared bitwise; refused otherwise); T_end may differ (a run can be extended; a
+/// file at or beyond T_end is refused: nothing to run); the scheme options are the caller's to keep the same.
+/// A run that fails writes no checkpoint (the last one written stays); a checkpoint that cannot be written
+/// throws, with catch_failure too (it is not the scheme's failure). Resumed with the same options, the run is
+/// bitwise the uninterrupted one (label restart) when the solver keeps no factorisation across steps
 /// (io/lsmps_checkpoint.hpp; BiCGSTAB-Jacobi, the default).
 struct tanaka_pieces : run_pieces {
-  /// The caller's own sections (e.g. an example's output state), added to every checkpoint written; names must not
-  /// start with "lsmps." or "tanaka_dam_break.".
+  /// The caller's own sections (e.g. an example's output state), added to every checkpoint written; names
+  /// must not start with "lsmps." or "tanaka_dam_break.".
   std::function<void(io::checkpoint_sections&)> save_extra;
   /// Called once after a resume, before the first step, with every section of the file and the result so far.
   std::function<void(const io::checkpoint_sections&, const tanaka_dam_break_result&)> load_extra;
 };
 
 namespace detail {
-/// tanaka_dam_break_config's fields in a checkpoint (section "tanaka_dam_break.config"), with their names for the
-/// refusal of another configuration.
+/// tanaka_dam_break_config's fields in a checkpoint (section "tanaka_dam_break.config"), with their names for
+/// the refusal of another configuration.
 inline std::vector<double> tanaka_config_values(const tanaka_dam_break_config& c) {
-  return {c.L, c.vessel_left, c.vessel_right, c.vessel_height, c.closed_top ? 1.0 : 0.0, c.remove_outside ? 1.0 : 0.0,
-          c.column_width, c.column_height, c.rho, c.mu, c.g, c.obstacle_width, c.obstacle_height, c.obstacle_centre,
+  return {c.L,
+          c.vessel_left,
+          c.vessel_right,
+          c.vessel_height,
+          c.closed_top ? 1.0 : 0.0,
+          c.remove_outside ? 1.0 : 0.0,
+          c.column_width,
+          c.column_height,
+          c.rho,
+          c.mu,
+          c.g,
+          c.obstacle_width,
+          c.obstacle_height,
+          c.obstacle_centre,
           c.max_speed_factor};
 }
-inline constexpr std::array<const char*, 15> tanaka_config_names{
-    "L", "vessel_left", "vessel_right", "vessel_height", "closed_top", "remove_outside", "column_width", "column_height",
-    "rho", "mu", "g", "obstacle_width", "obstacle_height", "obstacle_centre", "max_speed_factor"};
+inline constexpr std::array<const char*, 15> tanaka_config_names{"L",
+                                                                 "vessel_left",
+                                                                 "vessel_right",
+                                                                 "vessel_height",
+                                                                 "closed_top",
+                                                                 "remove_outside",
+                                                                 "column_width",
+                                                                 "column_height",
+                                                                 "rho",
+                                                                 "mu",
+                                                                 "g",
+                                                                 "obstacle_width",
+                                                                 "obstacle_height",
+                                                                 "obstacle_centre",
+                                                                 "max_speed_factor"};
 }  // namespace detail
 
-/// Pressure at q from the real, non-isolated fluid particles within re = R_e L (L the case's spacing; R_e of the
-/// operator, 3.1): LSMPS type B of first order (io::lsmps_b1_interpolation, exact for linear fields). NaN
+/// Pressure at q from the real, non-isolated fluid particles within re = R_e L (L the case's spacing; R_e of
+/// the operator, 3.1): LSMPS type B of first order (io::lsmps_b1_interpolation, exact for linear fields). NaN
 /// (dry) unless the fit is regular and some candidate j lies within 1.5 L_j of q, so that the value is an
 /// interpolation inside the particle cloud and not an extrapolation from a passing splash.
 template <class Sim>
@@ -135,8 +168,8 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
   thread_local std::vector<index_t> cand;
   thread_local std::vector<double> w;
   const auto counted = [&](index_t j) { return (fl[static_cast<std::size_t>(j)] & flag::isolated) == 0; };
-  const bool ok = io::point_weights(st, q, sim.params().op.re_ratio * L, counted, io::lsmps_b1_interpolation<2>{},
-                                    cand, w);
+  const bool ok = io::point_weights(st, q, sim.params().op.re_ratio * L, counted,
+                                    io::lsmps_b1_interpolation<2>{}, cand, w);
   const auto& V = st.template get<field::volume>();
   const bool near = std::any_of(cand.begin(), cand.end(), [&](index_t j) {
     return (st.x().col(j) - q).norm() <= 1.5 * std::sqrt(V[j]);  // 2D: L = √V
@@ -149,18 +182,20 @@ double probe_pressure(const Sim& sim, const vec<2>& q, double L) {
 }
 
 /// The wall options the dam-break runs compare (docs/lsmps_scheme.md): parent_gradient (the library's
-/// defaults), neumann_points (copy_row = neumann_points, deviation 11), two_point_wall_only (copy_two_point = 1
-/// and shift.projection = wall_only), two_point_wall_only_active_set (the same with active_set_solves = 10,
-/// deviation 13), two_point_wall_only_active_set_own_loop (the same with the own-loop guard, deviation 15),
-/// two_point_wall_only_active_set_own_loop_wall (the same with own_loop.wall_candidate_packing = 0.9),
-/// two_point_wall_only_active_set_own_loop_copies (the own-loop variant with active_set_copies),
-/// two_point_wall_only_active_set_own_loop_copies_conditioned (the same with op.max_condition = 1e4: a fit whose
-/// moment matrix has cond1 above 1e4 falls back to a lower order; docs/lsmps_scheme.md "Ill-conditioned fits"),
+/// defaults), neumann_points (copy_row = neumann_points, deviation 11), two_point_wall_only
+/// (copy_two_point = 1 and shift.projection = wall_only), two_point_wall_only_active_set (the same with
+/// active_set_solves = 10, deviation 13), two_point_wall_only_active_set_own_loop (the same with the own-loop
+/// guard, deviation 15), two_point_wall_only_active_set_own_loop_wall (the same with
+/// own_loop.wall_candidate_packing = 0.9), two_point_wall_only_active_set_own_loop_copies (the own-loop
+/// variant with active_set_copies), two_point_wall_only_active_set_own_loop_copies_conditioned (the same with
+/// op.max_condition = 1e4: a fit whose moment matrix has cond1 above 1e4 falls back to a lower order;
+/// docs/lsmps_scheme.md "Ill-conditioned fits"),
 /// two_point_wall_only_active_set_own_loop_copies_conditioned_limited (the same with shift_velocity_limit:
-/// docs/lsmps_scheme.md "The shifted velocity's limiter") and
-/// neumann_points_wall_only_active_set (Neumann-point rows, wall-only shifting and the set: the
-/// configuration of the main example, examples/multires_dam_break.cpp, until 2026-12-03; it now uses the
-/// conditioned, limited variant above with the collision stage). Used by the reporter (benchmarks/report_dam_break.cpp) and the example tanaka_dam_break.
+/// docs/lsmps_scheme.md "The shifted velocity's limiter") and neumann_points_wall_only_active_set
+/// (Neumann-point rows, wall-only shifting and the set: the configuration of the main example,
+/// examples/multires_dam_break.cpp, until 2026-12-03; it now uses the conditioned, limited variant above with
+/// the collision stage). Used by the reporter (benchmarks/report_dam_break.cpp) and the example
+/// tanaka_dam_break.
 struct tanaka_wall_variant {
   std::string name;   ///< as given on a command line
   std::string tag;    ///< suffix of a configuration name
@@ -220,8 +255,8 @@ inline const std::vector<tanaka_wall_variant>& tanaka_wall_variants() {
          p.collision = collision;
          p.shift_isolated_penalty = shift_isolated;
        }},
-      {"neumann_points_wall_only_active_set", "-npa", ", Neumann-point walls + wall-only shifting + active set",
-       [](scheme::lsmps_params<2>& p) {
+      {"neumann_points_wall_only_active_set", "-npa",
+       ", Neumann-point walls + wall-only shifting + active set", [](scheme::lsmps_params<2>& p) {
          p.copy_row = scheme::copy_row_kind::neumann_points;
          p.shift.projection = regularize::penalty_projection::wall_only;
          p.active_set_solves = 10;
@@ -238,18 +273,19 @@ inline const tanaka_wall_variant& tanaka_wall_variant_named(const std::string& n
   fail(who, ": wall variant '", name, "' (accepted: ", accepted, ")");
 }
 
-/// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: a 10 ms window from its
-/// first wet sample, a 2 ms filter (as the example tanaka_dam_break; measure_impact).
+/// The first impact at the far-wall probe (195, 5) mm, sampled by the runner every step: a 10 ms window from
+/// its first wet sample, a 2 ms filter (as the example tanaka_dam_break; measure_impact).
 inline impact_measures far_wall_impact(const tanaka_dam_break_result& r) {
   return measure_impact(r.probe_t, r.probe_p, 0.01, 0.002);
 }
 
 /// The wall options that, with the collision stage and both isolated-particle options (the library's
-/// scheme::lsmps_impact_params, tested to agree with this variant in label dam_break_lsmps), carry Tanaka's dam
-/// break at every spacing measured (6-1.5 mm) and the obstacle case through the far-wall impact with no guard
-/// activation (docs/validation.md): two-point copy rows, wall-only shifting, the active set, the own-loop
-/// guard with the copies, conditioned fits and the limited shifted velocity (docs/lsmps_scheme.md).
-inline constexpr const char* tanaka_impact_walls = "two_point_wall_only_active_set_own_loop_copies_conditioned_limited";
+/// scheme::lsmps_impact_params, tested to agree with this variant in label dam_break_lsmps), carry Tanaka's
+/// dam break at every spacing measured (6-1.5 mm) and the obstacle case through the far-wall impact with no
+/// guard activation (docs/validation.md): two-point copy rows, wall-only shifting, the active set, the
+/// own-loop guard with the copies, conditioned fits and the limited shifted velocity (docs/lsmps_scheme.md).
+inline constexpr const char* tanaka_impact_walls =
+    "two_point_wall_only_active_set_own_loop_copies_conditioned_limited";
 
 /// Does nothing (the default observer of run_tanaka_dam_break).
 struct no_tanaka_observer {
@@ -258,7 +294,8 @@ struct no_tanaka_observer {
 };
 
 /// The column at rest: positions, zero velocity, volume L² (2D).
-inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config& c, const tanaka_dam_break& db) {
+inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config& c,
+                                                   const tanaka_dam_break& db) {
   scheme::lsmps_state<2> s0(db.size());
   s0.x() = db.x;
   s0.u().setZero();
@@ -266,9 +303,9 @@ inline scheme::lsmps_state<2> tanaka_initial_state(const tanaka_dam_break_config
   return s0;
 }
 /// The case's part of the scheme options: ρ, ν, g (along −the last axis), Δt_max = α_C L / √(2 g H) (α_C =
-/// p.time.courant, Tanaka's 0.1 by default), the blow-up bound max_speed = max_speed_factor √(g H) and the removal
-/// box over the vessel's width [x_left, x_right] (c.remove_outside; the 2D vessel's [vessel_left, vessel_right], the
-/// 3D slab's [0, W], cases/tanaka_dam_break_slab.hpp).
+/// p.time.courant, Tanaka's 0.1 by default), the blow-up bound max_speed = max_speed_factor √(g H) and the
+/// removal box over the vessel's width [x_left, x_right] (c.remove_outside; the 2D vessel's [vessel_left,
+/// vessel_right], the 3D slab's [0, W], cases/tanaka_dam_break_slab.hpp).
 template <int D>
 void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsmps_params<D>& p, double x_left,
                             double x_right) {
@@ -292,8 +329,8 @@ inline void set_tanaka_case_params(const tanaka_dam_break_config& c, scheme::lsm
 /// (set_tanaka_case_params). With
 /// catch_failure an mpskit::error ends the run and is recorded (the reporter's failed configurations);
 /// otherwise it propagates. `observe(sim)` is called after every step
-/// (output, progress). `pieces`: checkpoints, stopping and resuming (tanaka_pieces; refused before any step when
-/// malformed, or when the file to resume is another configuration's).
+/// (output, progress). `pieces`: checkpoints, stopping and resuming (tanaka_pieces; refused before any step
+/// when malformed, or when the file to resume is another configuration's).
 template <class Scene = lsmps_defaults<2>, class Observer = no_tanaka_observer>
 tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, double T_end,
                                              scheme::lsmps_params<2> p = {}, bool catch_failure = false,
@@ -306,12 +343,14 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
   r.rho_g_h = c.rho * c.g * c.column_height;
   r.particles = db.size();
   double next = 0.0;
-  const auto volume = [&]() { return sim.state().template get<field::volume>().head(sim.state().n_real()).sum(); };
+  const auto volume = [&]() {
+    return sim.state().template get<field::volume>().head(sim.state().n_real()).sum();
+  };
   double V0 = volume();
   piece_clock clock(pieces);
   const auto wall = [&] { return clock.wall(); };
-  // The running measurements (section "tanaka_dam_break.measures"; the samples' vectors whole in ".front" and ".probe":
-  // at 1 mm ≈ 20 000 steps).
+  // The running measurements (section "tanaka_dam_break.measures"; the samples' vectors whole in ".front" and
+  // ".probe": at 1 mm ≈ 20 000 steps).
   measure_list measures;
   measures(V0)(next)(r.p_min)(r.p_min_copies)(r.u_max)(r.T_u_max)(r.min_pair_ratio)(r.T_min_pair)(
       r.min_pair_ratio_non_isolated)(r.particles)
@@ -320,24 +359,26 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     const std::string& file = pieces.resume;
     io::checkpoint_sections sec;
     io::load_simulation(file, sim, &sec);
-    const std::vector<double> cv = sec.get_doubles("tanaka_dam_break.config"), want = detail::tanaka_config_values(c);
+    const std::vector<double> cv = sec.get_doubles("tanaka_dam_break.config"),
+                              want = detail::tanaka_config_values(c);
     if (cv.size() != want.size())
-      fail("run_tanaka_dam_break: '", file, "': section 'tanaka_dam_break.config' holds ", cv.size(), " values, expected ",
-           want.size());
+      fail("run_tanaka_dam_break: '", file, "': section 'tanaka_dam_break.config' holds ", cv.size(),
+           " values, expected ", want.size());
     for (std::size_t k = 0; k < want.size(); ++k)
       if (std::bit_cast<std::uint64_t>(cv[k]) != std::bit_cast<std::uint64_t>(want[k]))
-        fail("run_tanaka_dam_break: '", file, "' was written with ", detail::tanaka_config_names[k], " = ", cv[k],
-             "; this run has ", want[k], " (resume with the file's configuration)");
+        fail("run_tanaka_dam_break: '", file, "' was written with ", detail::tanaka_config_names[k], " = ",
+             cv[k], "; this run has ", want[k], " (resume with the file's configuration)");
     measures.load(sec, "tanaka_dam_break.measures", "run_tanaka_dam_break", file);
     get_columns(sec, "tanaka_dam_break.front", {&r.T, &r.Z, &r.Z_body}, "run_tanaka_dam_break", file);
     get_columns(sec, "tanaka_dam_break.probe", {&r.probe_t, &r.probe_p}, "run_tanaka_dam_break", file);
     r.resumed_at = db.t_star(sim.time());
     if (!(r.resumed_at < T_end))
-      fail("run_tanaka_dam_break: '", file, "' is at T = ", r.resumed_at, ", not before this run's T_end = ", T_end,
-           " (nothing to run)");
+      fail("run_tanaka_dam_break: '", file, "' is at T = ", r.resumed_at,
+           ", not before this run's T_end = ", T_end, " (nothing to run)");
     if (pieces.load_extra) pieces.load_extra(sec, r);
   }
-  bool saving = false;  // a checkpoint that cannot be written is not the scheme's failure: thrown with catch_failure too
+  bool saving = false;  // a checkpoint that cannot be written is not the scheme's failure: thrown with
+                        // catch_failure too
   const auto save = [&] {
     saving = true;
     io::checkpoint_sections sec;
@@ -352,7 +393,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     io::save_simulation(pieces.checkpoint, sim, std::move(sec));
     saving = false;
   };
-  if (!pieces.checkpoint.empty()) save();  // before the first step: a bad path or section name is refused at once
+  if (!pieces.checkpoint.empty())
+    save();  // before the first step: a bad path or section name is refused at once
   try {
     while (db.t_star(sim.time()) < T_end) {
       sim.step();
@@ -378,18 +420,23 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
       if (T >= next) {
         next += 0.05;
         const auto& fl = sim.state().flags();
-        // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine one.
+        // Per-particle diameters (sqrt of the 2D volume): with splitting the front particle may be a fine
+        // one.
         const Eigen::VectorXd d = sim.state().template get<field::volume>().head(n).cwiseSqrt();
-        const auto counted = [&](index_t i) { return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0; };
+        const auto counted = [&](index_t i) {
+          return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0;
+        };
         const double Z = db.front_star(sim.state().x(), d, n, counted);
-        const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);  // may throw: push after it
-        const double Z_body =
-            db.front_star(sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; });
+        const std::vector<char> body =
+            io::largest_body(sim.state().x(), d, n, counted);  // may throw: push after it
+        const double Z_body = db.front_star(
+            sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; });
         r.T.push_back(T);
         r.Z.push_back(Z);
         r.Z_body.push_back(Z_body);
       }
-      if (clock.after_step(save, T < T_end)) {  // after the step's measurements: checkpoint, and stop when asked
+      if (clock.after_step(save,
+                           T < T_end)) {  // after the step's measurements: checkpoint, and stop when asked
         r.stopped = true;
         break;
       }

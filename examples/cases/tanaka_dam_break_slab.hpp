@@ -1,14 +1,16 @@
 #pragma once
 // Tanaka's dam break (§5.6.1, cases/tanaka_dam_break.hpp) as a 3D slab (ours: the paper's case is 2D): the
 // vessel's profile in the x–z plane (z vertical, gravity along −z), x ∈ [0, 400] mm, extruded along y over
-// [0, B], B = layers × L; the column 100 × B × 200 mm against the left wall x = 0. The walls are the polygons of
-// cases/polygon_tank.hpp (vertical left wall, open top unless closed_top). Along y the slab is periodic (the
+// [0, B], B = layers × L; the column 100 × B × 200 mm against the left wall x = 0. The walls are the polygons
+// of cases/polygon_tank.hpp (vertical left wall, open top unless closed_top). Along y the slab is periodic
+// (the
 // default: the flow is plane, so its front is the 2D run's up to the discretisation; the test of
-// scheme::lsmps_impact_params<3> in label dam_break_slab compares the two) or closed by two end walls (no-slip
-// walls, as every wall of the scheme: their copies carry the wall's velocity, and the one-sided-band filter drags
-// the layers beside them far more than ν would; docs/lsmps_scheme.md "The impact configuration"). A periodic slab
-// needs a period above twice the search radius (7.44 L with the defaults: 8 layers). The front
-// Z = (max x + L_i/2 of the non-isolated fluid)/h0 and T = t √(2g/h0) are the 2D case's, measured from the left wall.
+// scheme::lsmps_impact_params<3> in label dam_break_slab compares the two) or closed by two end walls
+// (no-slip walls, as every wall of the scheme: their copies carry the wall's velocity, and the one-sided-band
+// filter drags the layers beside them far more than ν would; docs/lsmps_scheme.md "The impact
+// configuration"). A periodic slab needs a period above twice the search radius (7.44 L with the defaults: 8
+// layers). The front Z = (max x + L_i/2 of the non-isolated fluid)/h0 and T = t √(2g/h0) are the 2D case's,
+// measured from the left wall.
 #include <Eigen/Core>
 #include <algorithm>
 #include <chrono>
@@ -35,25 +37,28 @@ enum class slab_sides {
 
 /// The slab: walls and fluid particles (volume L³ each).
 struct tanaka_slab {
-  geometry::polygon_set<3> walls;  ///< left, floor, right (+ the lid: closed_top; + end walls: slab_sides::walls)
-  points<3> x;                     ///< fluid particle positions (m)
-  double L = 0.0, B = 0.0;         ///< spacing and slab depth (m)
-  double W = 0.0, H = 0.0;         ///< vessel width and wall height (m): the box [0, W] × [0, B] × [0, H]
+  geometry::polygon_set<3>
+      walls;                ///< left, floor, right (+ the lid: closed_top; + end walls: slab_sides::walls)
+  points<3> x;              ///< fluid particle positions (m)
+  double L = 0.0, B = 0.0;  ///< spacing and slab depth (m)
+  double W = 0.0, H = 0.0;  ///< vessel width and wall height (m): the box [0, W] × [0, B] × [0, H]
   slab_sides sides = slab_sides::periodic;
   index_t size() const { return x.cols(); }
 };
 
 /// Builds the slab of `layers` particle layers along y from the 2D case's numbers. Refused: bad numbers (as
-/// tanaka_dam_break_config::validate), layers < 1, an obstacle (not built in 3D), a column that is not a whole
-/// number of spacings (the lattice would not fill it: the 2D case's L = h0/N readings), walls lower than the column
-/// plus L.
+/// tanaka_dam_break_config::validate), layers < 1, an obstacle (not built in 3D), a column that is not a
+/// whole number of spacings (the lattice would not fill it: the 2D case's L = h0/N readings), walls lower
+/// than the column plus L.
 inline tanaka_slab make_tanaka_slab(const tanaka_dam_break_config& c, int layers,
                                     slab_sides sides = slab_sides::periodic) {
   c.validate();
   validator v("make_tanaka_slab");
   v.require(layers >= 1, "layers", mpskit::detail::concat("is ", layers, ", must be >= 1"));
   v.require(!c.has_obstacle(), "obstacle", "the slab has no obstacle (the 2D case builds it)");
-  const auto whole = [&](double len) { return std::abs(len / c.L - std::round(len / c.L)) < 1e-9 * (len / c.L); };
+  const auto whole = [&](double len) {
+    return std::abs(len / c.L - std::round(len / c.L)) < 1e-9 * (len / c.L);
+  };
   v.require(whole(c.column_width) && whole(c.column_height), "L",
             mpskit::detail::concat("is ", c.L, ": the column ", c.column_width, " x ", c.column_height,
                                    " m must be whole numbers of L"));
@@ -75,12 +80,15 @@ inline tanaka_slab make_tanaka_slab(const tanaka_dam_break_config& c, int layers
   if (sides == slab_sides::periodic) {  // drop the end caps (the last four triangles, faces front and back)
     std::vector<index_t> keep;
     for (std::size_t e = 0; e < faces.size(); ++e)
-      if (faces[e] != tank_face::front && faces[e] != tank_face::back) keep.push_back(static_cast<index_t>(e));
+      if (faces[e] != tank_face::front && faces[e] != tank_face::back)
+        keep.push_back(static_cast<index_t>(e));
     Eigen::Matrix<index_t, 3, Eigen::Dynamic> el(3, static_cast<index_t>(keep.size()));
-    for (std::size_t k = 0; k < keep.size(); ++k) el.col(static_cast<index_t>(k)) = mesh.elements.col(keep[k]);
+    for (std::size_t k = 0; k < keep.size(); ++k)
+      el.col(static_cast<index_t>(k)) = mesh.elements.col(keep[k]);
     mesh.elements = el;
   }
-  tanaka_slab s{geometry::polygon_set<3>(std::move(mesh)), points<3>(), c.L, tc.B, tc.W, tc.tank_height, sides};
+  tanaka_slab s{
+      geometry::polygon_set<3>(std::move(mesh)), points<3>(), c.L, tc.B, tc.W, tc.tank_height, sides};
   s.x = fill_half_spacing<3>(s.walls, vec<3>::Zero(), vec<3>(c.column_width, tc.B, c.column_height), c.L);
   return s;
 }
@@ -100,11 +108,11 @@ struct tanaka_slab_result : tanaka_run_counts {
   std::string failure;
 };
 
-/// Runs the slab to T = T_end with the scheme options `p` (the case sets ρ, ν, g, Δt_max, the blow-up bound and the
-/// removal box over the vessel's x range by set_tanaka_case_params, as in 2D; the periodic y axis, or with end
-/// walls the removal over their tops). With
-/// catch_failure an mpskit::error of the scheme ends the run and is recorded; otherwise it propagates. `observe(sim)`
-/// is called after every step (output, progress).
+/// Runs the slab to T = T_end with the scheme options `p` (the case sets ρ, ν, g, Δt_max, the blow-up bound
+/// and the removal box over the vessel's x range by set_tanaka_case_params, as in 2D; the periodic y axis, or
+/// with end walls the removal over their tops). With catch_failure an mpskit::error of the scheme ends the
+/// run and is recorded; otherwise it propagates. `observe(sim)` is called after every step (output,
+/// progress).
 template <class Scene = lsmps_defaults<3>, class Observer = no_tanaka_observer>
 tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers, double T_end,
                                    scheme::lsmps_params<3> p = {}, slab_sides sides = slab_sides::periodic,
@@ -152,7 +160,8 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
       const std::vector<char> body = io::largest_body(st.x(), d, n, counted, p.domain);
       const auto in_body = [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; };
       r.T.push_back(T);
-      r.Z.push_back(tanaka_surge_front(st.x(), d, n, counted, 0.0) / c.column_width);  // the left wall at x = 0
+      r.Z.push_back(tanaka_surge_front(st.x(), d, n, counted, 0.0) /
+                    c.column_width);  // the left wall at x = 0
       r.Z_body.push_back(tanaka_surge_front(st.x(), d, n, in_body, 0.0) / c.column_width);
     }
   } catch (const mpskit::error& e) {

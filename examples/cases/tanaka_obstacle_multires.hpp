@@ -1,6 +1,6 @@
 #pragma once
-// Tanaka's dam break with the 10 × 10 mm obstacle (§5.6.2, validation-cases.md A7) refined around the block by
-// splitting and merging (§4.4): the scene, the target diameter and the front comparison shared by the main
+// Tanaka's dam break with the 10 × 10 mm obstacle (§5.6.2, validation-cases.md A7) refined around the block
+// by splitting and merging (§4.4): the scene, the target diameter and the front comparison shared by the main
 // example (examples/multires_dam_break.cpp), its test (label dam_break_multires) and the speed-against-error
 // reporter (benchmarks/report_obstacle_multires.cpp). docs/resolution.md "The main example".
 #include <algorithm>
@@ -20,11 +20,11 @@ struct obstacle_multires_scene : lsmps_defaults<2> {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-/// The wall options of the speed-against-error reporter's default (and of label dam_break_multires's T = 2.4 test
-/// until 2026-12-03)
-/// (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0; docs/lsmps_scheme.md deviations 11 and
-/// 13); the main example's default until 2026-12-03 (now scheme::lsmps_impact_params<2>()). With the library's
-/// default rows the obstacle case fails at t ≈ 0.11 s even at single resolution.
+/// The wall options of the speed-against-error reporter's default (and of label dam_break_multires's T = 2.4
+/// test until 2026-12-03) (Neumann-point copy rows, wall-only shifting, the active set for p ≥ 0;
+/// docs/lsmps_scheme.md deviations 11 and 13); the main example's default until 2026-12-03 (now
+/// scheme::lsmps_impact_params<2>()). With the library's default rows the obstacle case fails at t ≈ 0.11 s
+/// even at single resolution.
 inline constexpr const char* obstacle_walls = "neumann_points_wall_only_active_set";
 
 /// The obstacle runs' parameters with the wall variant `walls` (a name of tanaka_wall_variants; unknown names
@@ -35,12 +35,12 @@ inline scheme::lsmps_params<2> obstacle_params(const std::string& walls = obstac
   return p;
 }
 
-/// Sets p's target diameter to L/ratio within r0 of the block's centre, a linear ramp to 1.05 L at r1 (ours: the
-/// paper's Fig. 27b is not in the text; 1.05 L so that coarse particles outside never merge), and
+/// Sets p's target diameter to L/ratio within r0 of the block's centre, a linear ramp to 1.05 L at r1 (ours:
+/// the paper's Fig. 27b is not in the text; 1.05 L so that coarse particles outside never merge), and
 /// wall_contact = 0.75 (a split beside a wall keeps a child in contact, docs/resolution.md). L = c.L. Refused
 /// unless c has an obstacle, ratio ≥ 1 and 0 ≤ r0 < r1 (m).
-inline void refine_around_block(scheme::lsmps_params<2>& p, const tanaka_dam_break_config& c, double ratio, double r0,
-                                double r1) {
+inline void refine_around_block(scheme::lsmps_params<2>& p, const tanaka_dam_break_config& c, double ratio,
+                                double r0, double r1) {
   if (!c.has_obstacle()) fail("refine_around_block: the configuration has no obstacle");
   if (!(ratio >= 1.0 && std::isfinite(ratio))) fail("refine_around_block: ratio ", ratio, ": must be >= 1");
   if (!(r0 >= 0.0 && r1 > r0 && std::isfinite(r1)))
@@ -63,18 +63,20 @@ struct front_difference {
   int samples = 0;
 };
 
-/// The run's front at the reference's sample times T ≤ T_limit, linear between its own samples (both sample at the
-/// first step at or after each multiple of 0.05 T, so their times differ by up to a step). `series`: the front
-/// over every counted particle (Z, default) or over the largest connected body (Z_body, spray left out).
-inline front_difference compare_fronts(const tanaka_dam_break_result& run, const tanaka_dam_break_result& ref,
-                                       double T_limit = std::numeric_limits<double>::infinity(),
-                                       std::vector<double> tanaka_dam_break_result::*series = &tanaka_dam_break_result::Z) {
+/// The run's front at the reference's sample times T ≤ T_limit, linear between its own samples (both sample
+/// at the first step at or after each multiple of 0.05 T, so their times differ by up to a step). `series`:
+/// the front over every counted particle (Z, default) or over the largest connected body (Z_body, spray left
+/// out).
+inline front_difference compare_fronts(
+    const tanaka_dam_break_result& run, const tanaka_dam_break_result& ref,
+    double T_limit = std::numeric_limits<double>::infinity(),
+    std::vector<double> tanaka_dam_break_result::*series = &tanaka_dam_break_result::Z) {
   const std::vector<double>& T = run.T;
   const std::vector<double>& Z = run.*series;
   const std::vector<double>& Z_ref = ref.*series;
   if (Z.size() != T.size() || Z_ref.size() != ref.T.size())
-    fail("compare_fronts: a front series has ", Z.size(), " and ", Z_ref.size(), " samples for ", T.size(), " and ",
-         ref.T.size(), " times");
+    fail("compare_fronts: a front series has ", Z.size(), " and ", Z_ref.size(), " samples for ", T.size(),
+         " and ", ref.T.size(), " times");
   front_difference d;
   double sum = 0.0;
   for (std::size_t k = 0; k < ref.T.size() && T.size() >= 2; ++k) {

@@ -10,7 +10,8 @@ namespace mpskit::cases {
 /// A state with fluid filling [0, fluid_hi] inside an open tank [0, tank_hi] (walls on every face but
 /// the top), spacing l0, `layers` solid layers.
 template <int D>
-scheme::semi_implicit_state<D> tank_state(const vec<D>& fluid_hi, const vec<D>& tank_hi, double l0, int layers = 3) {
+scheme::semi_implicit_state<D> tank_state(const vec<D>& fluid_hi, const vec<D>& tank_hi, double l0,
+                                          int layers = 3) {
   auto blk = wall::fill_box<D>(vec<D>::Zero(), fluid_hi, l0);
   blk.append(wall::box_walls<D>(vec<D>::Zero(), tank_hi, l0, layers));
   scheme::semi_implicit_state<D> s(static_cast<index_t>(blk.size()));

@@ -75,15 +75,16 @@ struct taylor_green_result {
   index_t particles = 0;           ///< particles
 };
 
-/// Kinetic energy per unit depth, ½ Σ ρ V |u|² (J/m), from io::integrals (no gravity: the potential part is 0).
+/// Kinetic energy per unit depth, ½ Σ ρ V |u|² (J/m), from io::integrals (no gravity: the potential part is
+/// 0).
 template <class State>
 double kinetic_energy(const State& s, double rho) {
   return io::integrals(s, rho, vec<2>::Zero()).kinetic_energy;
 }
 
 /// Runs the vortex with Scene (taylor_green_scene or a variant).
-/// The scheme numbers of the case: c.params with ρ, ν = 0, no gravity and the box periodic in both axes (Δt is
-/// the caller's).
+/// The scheme numbers of the case: c.params with ρ, ν = 0, no gravity and the box periodic in both axes (Δt
+/// is the caller's).
 inline scheme::lsmps_params<2> taylor_green_params(const taylor_green_config& c) {
   auto p = c.params;
   p.rho = c.rho;

@@ -54,8 +54,8 @@ struct quiet_defaults : defaults<D> {
 };
 
 /// Tanaka, Cardoso & Bahai 2018's single-resolution LSMPS scheme (scheme/lsmps_semi_implicit.hpp): LSMPS
-/// type A of order 2, det F source, BiCGSTAB with Jacobi (the PPE is not symmetric), geometric surface detection,
-/// polygon walls with imaginary particles, Tanaka's shifting.
+/// type A of order 2, det F source, BiCGSTAB with Jacobi (the PPE is not symmetric), geometric surface
+/// detection, polygon walls with imaginary particles, Tanaka's shifting.
 template <int D>
   requires Dimension<D>
 struct lsmps_defaults {
@@ -63,7 +63,8 @@ struct lsmps_defaults {
   using kernel = mpskit::kernel::quadratic;                ///< Tanaka eq. 29
   using op = mpskit::op::lsmps_a<D, 2, kernel>;            ///< LSMPS type A, second order (eqs. 41–46)
   using source = mpskit::ppe::det_f;                       ///< det F = c′ (eqs. 55–63)
-  using solver = mpskit::ppe::bicgstab_jacobi;             ///< BiCGSTAB + Jacobi (3.4× faster than ILUT on the Taylor–Green PPE)
+  /// BiCGSTAB + Jacobi (3.4× faster than ILUT on the Taylor–Green PPE)
+  using solver = mpskit::ppe::bicgstab_jacobi;
   using surface = mpskit::surface::geometric_detector;     ///< §4.6, both cone tests
   using shifting = mpskit::regularize::tanaka_shift;       ///< eqs. 93–100
   using walls = mpskit::wall::imaginary;                   ///< polygons, copies on the boundary (§4.5.1)

@@ -1,5 +1,6 @@
 #pragma once
-// Shared test helpers: point sets, scratch directories and bitwise comparisons (one definition for every suite).
+// Shared test helpers: point sets, scratch directories and bitwise comparisons (one definition for every
+// suite).
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -34,10 +35,12 @@ points<D> jittered_lattice(int m, double h, double jitter, std::mt19937_64& rng)
   return x;
 }
 
-/// The same bits (restart tests: a resumed run against the uninterrupted one; −0.0 ≠ 0.0, a NaN equals the same
-/// NaN): two doubles, two std::vectors, or two Eigen matrices or arrays that own their storage (the same shape;
-/// expressions and strided views are not accepted: copy them into a plain object).
-inline bool same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+/// The same bits (restart tests: a resumed run against the uninterrupted one; −0.0 ≠ 0.0, a NaN equals the
+/// same NaN): two doubles, two std::vectors, or two Eigen matrices or arrays that own their storage (the same
+/// shape; expressions and strided views are not accepted: copy them into a plain object).
+inline bool same_bits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
 template <class T>
 bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
   return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), sizeof(T) * a.size()) == 0);

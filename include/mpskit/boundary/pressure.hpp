@@ -56,8 +56,9 @@ enum class outflow_rule {
 /// Numbers of the pressure boundary (Tanaka 2018 Table 1).
 struct pressure_params {
   double alpha_o = 0.25;  ///< α_o: outflow removes fluid i with r_ip < α_o L_i (Table 1: 0.25). Range (0, 1]
-  double alpha_i = 0.25;  ///< α_i: inflow position x_p + α_i L_p n_p (Table 1: 0.25; the text omits L_p). Range (0, 1]
-  double alpha_j = 1.0;   ///< α_J (the text's α_l): inflow when no fluid within α_J L_i of x_l. Range (0, 2]
+  /// α_i: inflow position x_p + α_i L_p n_p (Table 1: 0.25; the text omits L_p). Range (0, 1]
+  double alpha_i = 0.25;
+  double alpha_j = 1.0;  ///< α_J (the text's α_l): inflow when no fluid within α_J L_i of x_l. Range (0, 2]
   /// The boundary particle's velocity keeps only its normal component (u_p·n_p) n_p: Tanaka, "the velocity
   /// on the pressure boundary should have the same direction as the normal vector ... for stability".
   bool normal_velocity = true;
@@ -113,9 +114,9 @@ struct inflow_particle {
 
 /// Pressure-boundary particles placed in advance on polygon faces: in 2D each segment is cut into
 /// n = ⌈|b − a| / L⌉ equal pieces with a particle at each piece's centre (L_p = |b − a| / n); in 3D each
-/// triangle into n² similar triangles (n = ⌈√area / L⌉: one particle per L² of face) with a particle at each centroid
-/// (L_p = √(area / n²)). The normal is the element's winding normal (it must point into the fluid) and the
-/// pressure that of the element.
+/// triangle into n² similar triangles (n = ⌈√area / L⌉: one particle per L² of face) with a particle at each
+/// centroid (L_p = √(area / n²)). The normal is the element's winding normal (it must point into the fluid)
+/// and the pressure that of the element.
 template <int D>
 class pressure_boundary {
  public:
@@ -132,21 +133,23 @@ class pressure_boundary {
   /// L* at its vertices and centroid. A constant L* gives the constant-L placement exactly.
   template <class Spacing>
     requires std::is_invocable_r_v<double, const Spacing&, const vec<D>&>
-  pressure_boundary(geometry::polygon_set<D> faces, std::vector<double> element_pressure, const Spacing& spacing,
-                    const pressure_params& p = {})
+  pressure_boundary(geometry::polygon_set<D> faces, std::vector<double> element_pressure,
+                    const Spacing& spacing, const pressure_params& p = {})
       : faces_(std::move(faces)), pressure_(std::move(element_pressure)), p_(p) {
     p_.validate();
     const auto Ls = [&](const vec<D>& y) {
       const double v = spacing(y);
       if (!(std::isfinite(v) && v > 0.0))
-        fail("boundary::pressure_boundary: spacing L = ", v, " at (", y.transpose(), "), accepted range (0, inf)");
+        fail("boundary::pressure_boundary: spacing L = ", v, " at (", y.transpose(),
+             "), accepted range (0, inf)");
       return v;
     };
     if (static_cast<index_t>(pressure_.size()) != faces_.size())
       fail("boundary::pressure_boundary: ", pressure_.size(), " pressures for ", faces_.size(),
            " face elements (one P_b per element)");
     for (std::size_t e = 0; e < pressure_.size(); ++e)
-      if (!std::isfinite(pressure_[e])) fail("boundary::pressure_boundary: P_b of element ", e, " is not finite");
+      if (!std::isfinite(pressure_[e]))
+        fail("boundary::pressure_boundary: P_b of element ", e, " is not finite");
     std::vector<vec<D>> xs, ns;
     std::vector<double> ls, ps;
     std::vector<index_t> es;
@@ -164,7 +167,8 @@ class pressure_boundary {
         double inv_prev = 1.0 / Ls(a);
         for (int q = 1; q <= M; ++q) {
           const double inv = 1.0 / Ls(vec<D>(a + (double(q) / M) * (b - a)));
-          phi[static_cast<std::size_t>(q)] = phi[static_cast<std::size_t>(q) - 1] + 0.5 * (inv + inv_prev) * len / M;
+          phi[static_cast<std::size_t>(q)] =
+              phi[static_cast<std::size_t>(q) - 1] + 0.5 * (inv + inv_prev) * len / M;
           inv_prev = inv;
         }
         const double Phi = phi.back();
@@ -179,7 +183,8 @@ class pressure_boundary {
         for (int k = 0; k < m; ++k) {
           const double s0 = uniform ? len * k / m : s_of(Phi * k / m);
           const double s1 = uniform ? len * (k + 1) / m : (k + 1 == m ? len : s_of(Phi * (k + 1) / m));
-          xs.push_back(uniform ? vec<D>(a + (k + 0.5) / m * (b - a)) : vec<D>(a + (0.5 * (s0 + s1) / len) * (b - a)));
+          xs.push_back(uniform ? vec<D>(a + (k + 0.5) / m * (b - a))
+                               : vec<D>(a + (0.5 * (s0 + s1) / len) * (b - a)));
           ls.push_back(uniform ? len / m : s1 - s0);
           ns.push_back(nrm);
           ps.push_back(pressure_[static_cast<std::size_t>(e)]);
@@ -222,7 +227,8 @@ class pressure_boundary {
     }
     element_ = std::move(es);
     element_begin_.assign(static_cast<std::size_t>(faces_.size()) + 1, n);
-    for (index_t k = n; k-- > 0;) element_begin_[static_cast<std::size_t>(element_[static_cast<std::size_t>(k)])] = k;
+    for (index_t k = n; k-- > 0;)
+      element_begin_[static_cast<std::size_t>(element_[static_cast<std::size_t>(k)])] = k;
     for (std::size_t e = element_begin_.size() - 1; e-- > 0;)  // elements without a particle: empty ranges
       element_begin_[e] = std::min(element_begin_[e], element_begin_[e + 1]);
   }
@@ -237,7 +243,8 @@ class pressure_boundary {
   const pressure_params& params() const { return p_; }               ///< the numbers
   /// Sets P_b of one face element (e.g. a time-dependent pressure, between steps).
   void set_pressure(index_t e, double P) {
-    if (e < 0 || e >= faces_.size()) fail("boundary::pressure_boundary::set_pressure: element ", e, " of ", faces_.size());
+    if (e < 0 || e >= faces_.size())
+      fail("boundary::pressure_boundary::set_pressure: element ", e, " of ", faces_.size());
     if (!std::isfinite(P)) fail("boundary::pressure_boundary::set_pressure: P_b = ", P, " is not finite");
     pressure_[static_cast<std::size_t>(e)] = P;
     for (index_t k = 0; k < size(); ++k)
@@ -342,8 +349,8 @@ class pressure_boundary {
   template <class FitCandidate>
   void find_inflow(const points<D>& x, const points<D>& u, const Eigen::VectorXd& L, index_t n_fluid,
                    index_t first_boundary, const points<D>& u_boundary, const search::neighbour_list<D>& nl,
-                   const std::vector<std::uint8_t>& remove, const FitCandidate& fit_candidate, const op::lsmps_params& fit_params,
-                   std::vector<inflow_particle<D>>& out) const {
+                   const std::vector<std::uint8_t>& remove, const FitCandidate& fit_candidate,
+                   const op::lsmps_params& fit_params, std::vector<inflow_particle<D>>& out) const {
     out.clear();
     const op::lsmps_b<D, 1> fit(fit_params);
     std::vector<index_t> cand, idx;  // buffers kept across boundary particles
@@ -379,7 +386,8 @@ class pressure_boundary {
           lloc[c] = L[cand[static_cast<std::size_t>(c)]];
           idx[static_cast<std::size_t>(c)] = c;
         }
-        const auto st = fit.stencil(xloc, xl, L_[k], std::span<const index_t>(idx), op::per_particle_size{&lloc});
+        const auto st =
+            fit.stencil(xloc, xl, L_[k], std::span<const index_t>(idx), op::per_particle_size{&lloc});
         if (!st.columns.empty() && st.order_used >= 0) {
           vec<D> v = vec<D>::Zero();
           for (std::size_t c = 0; c < st.columns.size(); ++c)
@@ -393,7 +401,8 @@ class pressure_boundary {
 
  private:
   static auto checked_spacing(double L) {
-    if (!(std::isfinite(L) && L > 0.0)) fail("boundary::pressure_boundary: L = ", L, ", accepted range (0, inf)");
+    if (!(std::isfinite(L) && L > 0.0))
+      fail("boundary::pressure_boundary: L = ", L, ", accepted range (0, inf)");
     return [L](const vec<D>&) { return L; };
   }
 

@@ -57,15 +57,15 @@ void for_each_particle(E, index_t n, F&& f) {
 }
 
 /// Holds Eigen's own OpenMP threads to one while it lives when `items` < `min_items` (by default
-/// parallel_min_items, the rule of for_each_particle applied to Eigen): Eigen's sparse matrix × vector product
-/// goes parallel above 20 000 non-zeros whatever the rows (a 2D PPE of ≈ 600 unknowns), with a parallel region
-/// per product, two per BiCGSTAB iteration. Measured (benchmarks/bench_eigen_threads.cpp, docs/solver.md
-/// deviation 7; a 2D channel of 1900 unknowns, two threads): with one other busy thread on the 2-core machine
-/// the run took 2.66× as long without the hold; on an idle machine the two do not differ beyond noise (0.98×).
-/// The setting is Eigen's, process-wide (Eigen::setNbThreads): it is restored on destruction, a value the
-/// caller had pinned equal to omp_get_max_threads() becomes "follow OpenMP" again, and two simulations
-/// solving at once on different std::threads share it. Results do not change: each row of the product is
-/// one thread's.
+/// parallel_min_items, the rule of for_each_particle applied to Eigen): Eigen's sparse matrix × vector
+/// product goes parallel above 20 000 non-zeros whatever the rows (a 2D PPE of ≈ 600 unknowns), with a
+/// parallel region per product, two per BiCGSTAB iteration. Measured (benchmarks/bench_eigen_threads.cpp,
+/// docs/solver.md deviation 7; a 2D channel of 1900 unknowns, two threads): with one other busy thread on the
+/// 2-core machine the run took 2.66× as long without the hold; on an idle machine the two do not differ
+/// beyond noise (0.98×). The setting is Eigen's, process-wide (Eigen::setNbThreads): it is restored on
+/// destruction, a value the caller had pinned equal to omp_get_max_threads() becomes "follow OpenMP" again,
+/// and two simulations solving at once on different std::threads share it. Results do not change: each row of
+/// the product is one thread's.
 class eigen_threads_scope {
  public:
   explicit eigen_threads_scope(index_t items, index_t min_items = parallel_min_items) {

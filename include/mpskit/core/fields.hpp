@@ -56,7 +56,9 @@ struct velocity : vector_base { static constexpr std::string_view name = "veloci
 struct id : integer_base<particle_id> { static constexpr std::string_view name = "id", units = "1"; };
 struct kind : integer_base<mpskit::kind> { static constexpr std::string_view name = "kind", units = "1"; };
 struct flags : integer_base<flag::type> { static constexpr std::string_view name = "flags", units = "1"; };
-struct role : integer_base<ghost_role> { static constexpr std::string_view name = "ghost_role", units = "1"; };
+struct role : integer_base<ghost_role> {
+  static constexpr std::string_view name = "ghost_role", units = "1";
+};
 /// The real particle a ghost was made from (npos for real particles).
 struct parent : index_base { static constexpr std::string_view name = "parent", units = "1"; };
 

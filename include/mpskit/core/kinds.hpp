@@ -43,7 +43,7 @@ enum class ghost_role : std::uint8_t {
   imaginary = 1,   ///< copy on a polygon wall (Tanaka 2018 §4.5.1)
   fictitious = 2,  ///< BMMR fictitious fine particle (bmmr.md §3.4)
   mirror = 3,      ///< mirror image (reserved; ERP stores none)
-  pressure = 4,    ///< pressure-boundary particle placed in advance on an in/outflow face (Tanaka 2018 §4.5.2)
+  pressure = 4,  ///< pressure-boundary particle placed in advance on an in/outflow face (Tanaka 2018 §4.5.2)
 };
 
 }  // namespace mpskit

@@ -19,16 +19,17 @@ namespace mpskit {
 
 /// What one call of the resize path did (every change of order or count is reported).
 struct resize_report {
-  index_t old_size = 0;        ///< particles (real + ghost) before
-  index_t new_size = 0;        ///< particles (real + ghost) after
-  index_t reordered = 0;       ///< real particles that changed slot
-  index_t appended = 0;        ///< new real particles (new ids)
-  index_t removed = 0;         ///< real particles removed
-  index_t promoted = 0;        ///< ghosts that became real particles (new ids)
-  index_t ghosts_added = 0;    ///< ghosts appended
-  index_t ghosts_cleared = 0;  ///< ghosts dropped
-  index_t references_lost = 0; ///< index-holding field entries that pointed at a removed particle (now npos)
-  std::vector<index_t> old_to_new;  ///< new slot of each old slot, npos if gone; remap external indices with it
+  index_t old_size = 0;         ///< particles (real + ghost) before
+  index_t new_size = 0;         ///< particles (real + ghost) after
+  index_t reordered = 0;        ///< real particles that changed slot
+  index_t appended = 0;         ///< new real particles (new ids)
+  index_t removed = 0;          ///< real particles removed
+  index_t promoted = 0;         ///< ghosts that became real particles (new ids)
+  index_t ghosts_added = 0;     ///< ghosts appended
+  index_t ghosts_cleared = 0;   ///< ghosts dropped
+  index_t references_lost = 0;  ///< index-holding field entries that pointed at a removed particle (now npos)
+  std::vector<index_t>
+      old_to_new;  ///< new slot of each old slot, npos if gone; remap external indices with it
   /// New index of an old index (npos stays npos).
   index_t remap(index_t old) const {
     return old < 0 ? npos : old_to_new[static_cast<std::size_t>(old)];
@@ -167,7 +168,8 @@ class particle_state<D, field_list<Extra...>> {
     std::vector<char> seen(static_cast<std::size_t>(n_total_), 0);
     for (index_t g : ghosts) {
       if (g < n_real_ || g >= n_total_ || seen[static_cast<std::size_t>(g)])
-        fail("promote_ghosts: ", g, " is not a ghost index in [", n_real_, ", ", n_total_, ") or is repeated");
+        fail("promote_ghosts: ", g, " is not a ghost index in [", n_real_, ", ", n_total_,
+             ") or is repeated");
       seen[static_cast<std::size_t>(g)] = 1;
       src.push_back(g);
     }
@@ -201,7 +203,8 @@ class particle_state<D, field_list<Extra...>> {
   /// id set. Not a resize path (nothing remapped, no ids given): the caller fills every field, then
   /// validates.
   void restore_layout(index_t n_real, index_t n_ghost, particle_id next_id) {
-    if (n_real < 0 || n_ghost < 0) fail("restore_layout: counts ", n_real, " real, ", n_ghost, " ghost must be >= 0");
+    if (n_real < 0 || n_ghost < 0)
+      fail("restore_layout: counts ", n_real, " real, ", n_ghost, " ghost must be >= 0");
     const index_t m = n_real + n_ghost;
     for_each_field([&](auto tag) {
       using T = decltype(tag);
@@ -245,7 +248,8 @@ class particle_state<D, field_list<Extra...>> {
     for (index_t i = 0; i < n_total_; ++i) {
       const bool ghost = i >= n_real_;
       if (ghost != (roles[static_cast<std::size_t>(i)] != ghost_role::none))
-        fail("particle ", i, ": ghost role does not match its range (ghosts are [", n_real_, ", ", n_total_, "))");
+        fail("particle ", i, ": ghost role does not match its range (ghosts are [", n_real_, ", ", n_total_,
+             "))");
     }
     std::vector<particle_id> sorted(ids().begin(), ids().begin() + n_real_);
     std::sort(sorted.begin(), sorted.end());

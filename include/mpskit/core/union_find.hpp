@@ -1,8 +1,8 @@
 #pragma once
 /// \file core/union_find.hpp
-/// \brief Disjoint sets over indices 0..n−1 with path halving, the smaller index always the root (so a set's root
-/// is its lowest index: results do not depend on the order of the unions). Shared by the PPE's anchoring check
-/// (ppe/floating_parts.hpp) and the largest connected body of the probes (io/probes.hpp).
+/// \brief Disjoint sets over indices 0..n−1 with path halving, the smaller index always the root (so a set's
+/// root is its lowest index: results do not depend on the order of the unions). Shared by the PPE's anchoring
+/// check (ppe/floating_parts.hpp) and the largest connected body of the probes (io/probes.hpp).
 #include <cstddef>
 #include <vector>
 
@@ -18,7 +18,8 @@ class union_find {
   /// The root of i's set (path halving on the way).
   index_t find(index_t i) {
     while (root_[static_cast<std::size_t>(i)] != i) {
-      root_[static_cast<std::size_t>(i)] = root_[static_cast<std::size_t>(root_[static_cast<std::size_t>(i)])];
+      root_[static_cast<std::size_t>(i)] =
+          root_[static_cast<std::size_t>(root_[static_cast<std::size_t>(i)])];
       i = root_[static_cast<std::size_t>(i)];
     }
     return i;

@@ -142,8 +142,8 @@ class polygon_set final {
   double scale() const { return scale_; }
   /// True when every vertex lies on the fluid side of every element's plane (to 1e-12 scale()): the fluid
   /// side ∩ {y : (y − v_e)·n_e ≥ 0} is then convex with every element on its boundary (tanks, boxes, prisms,
-  /// ducts; not a tank with an obstacle, a step or a thin plate). Checked once at construction for sets of up to
-  /// convex_check_max_elements elements (larger: false); poses are rigid, so it holds in every pose.
+  /// ducts; not a tank with an obstacle, a step or a thin plate). Checked once at construction for sets of up
+  /// to convex_check_max_elements elements (larger: false); poses are rigid, so it holds in every pose.
   bool convex() const { return convex_; }
   static constexpr index_t convex_check_max_elements = 4096;
 

@@ -39,11 +39,17 @@ enum class section_type : std::uint8_t {
 class checkpoint_sections {
  public:
   /// Adds opaque bytes.
-  void add_bytes(std::string name, std::string bytes) { insert(std::move(name), section_type::bytes, std::move(bytes), 1); }
+  void add_bytes(std::string name, std::string bytes) {
+    insert(std::move(name), section_type::bytes, std::move(bytes), 1);
+  }
   /// Adds doubles.
-  void add_doubles(std::string name, const std::vector<double>& v) { insert_values(std::move(name), section_type::doubles, v); }
+  void add_doubles(std::string name, const std::vector<double>& v) {
+    insert_values(std::move(name), section_type::doubles, v);
+  }
   /// Adds 64-bit integers.
-  void add_int64s(std::string name, const std::vector<std::int64_t>& v) { insert_values(std::move(name), section_type::int64, v); }
+  void add_int64s(std::string name, const std::vector<std::int64_t>& v) {
+    insert_values(std::move(name), section_type::int64, v);
+  }
   /// Adds one double.
   void add(std::string name, double v) { add_doubles(std::move(name), {v}); }
   /// Adds one 64-bit integer.
@@ -52,7 +58,9 @@ class checkpoint_sections {
   /// The bytes of a section.
   const std::string& get_bytes(std::string_view name) const { return find(name, section_type::bytes).data; }
   /// The doubles of a section.
-  std::vector<double> get_doubles(std::string_view name) const { return values<double>(name, section_type::doubles); }
+  std::vector<double> get_doubles(std::string_view name) const {
+    return values<double>(name, section_type::doubles);
+  }
   /// The integers of a section.
   std::vector<std::int64_t> get_int64s(std::string_view name) const {
     return values<std::int64_t>(name, section_type::int64);
@@ -86,7 +94,9 @@ class checkpoint_sections {
   };
   friend struct checkpoint_access;
 
-  std::string where() const { return origin_.empty() ? std::string("checkpoint sections") : "checkpoint '" + origin_ + "'"; }
+  std::string where() const {
+    return origin_.empty() ? std::string("checkpoint sections") : "checkpoint '" + origin_ + "'";
+  }
   void insert(std::string name, section_type t, std::string data, std::size_t elem) {
     if (name.empty()) fail("checkpoint_sections: empty section name");
     if (contains(name)) fail(where(), ": section '", name, "' added twice (section names must be unique)");
@@ -147,7 +157,8 @@ class byte_reader {
     return v;
   }
   const char* take(std::size_t n, const char* what) {
-    if (n > s_.size() - p_) fail("load_checkpoint: '", file_, "': payload ends inside ", what, " (corrupted)");
+    if (n > s_.size() - p_)
+      fail("load_checkpoint: '", file_, "': payload ends inside ", what, " (corrupted)");
     const char* r = s_.data() + p_;
     p_ += n;
     return r;
@@ -195,7 +206,8 @@ template <ParticleState State>
 void save_checkpoint(const std::filesystem::path& path, const State& state,
                      const checkpoint_sections& sections = {}) {
   constexpr int D = State::dim;
-  if (!detail::little_endian) fail("save_checkpoint: '", path.string(), "': big-endian machines are not supported");
+  if (!detail::little_endian)
+    fail("save_checkpoint: '", path.string(), "': big-endian machines are not supported");
   std::string payload;
   detail::append_value(payload, static_cast<std::uint64_t>(state.n_real()));
   detail::append_value(payload, static_cast<std::uint64_t>(state.n_ghost()));
@@ -265,10 +277,12 @@ void load_checkpoint(const std::filesystem::path& path, State& state, checkpoint
   const auto n_ghost = r.value<std::uint64_t>("the particle counts");
   const auto next_id = r.value<std::uint64_t>("the next id");
   const auto n_fields = r.value<std::uint32_t>("the field count");
-  if (n_real > (1ull << 40) || n_ghost > (1ull << 40)) bad("particle counts ", n_real, " + ", n_ghost, " are not plausible");
+  if (n_real > (1ull << 40) || n_ghost > (1ull << 40))
+    bad("particle counts ", n_real, " + ", n_ghost, " are not plausible");
   if (n_fields != State::fields::size) {
     std::string mine;
-    State::for_each_field([&](auto tag) { mine += (mine.empty() ? "" : ", ") + std::string(decltype(tag)::name); });
+    State::for_each_field(
+        [&](auto tag) { mine += (mine.empty() ? "" : ", ") + std::string(decltype(tag)::name); });
     bad("holds ", n_fields, " fields, the state has ", State::fields::size, " (", mine, ")");
   }
   State restored;
@@ -287,8 +301,10 @@ void load_checkpoint(const std::filesystem::path& path, State& state, checkpoint
     if (name != T::name)
       bad("field ", k, " is '", name, "', the state's field ", k, " is '", T::name, "' (field lists differ)");
     if (shape != static_cast<std::uint8_t>(T::shape) || type != L::type || comps != L::components)
-      bad("field '", name, "' is stored as ", type, " x ", comps, ", the state has ", L::type, " x ", L::components);
-    if (units != T::units) bad("field '", name, "' has units '", units, "', the state's are '", T::units, "'");
+      bad("field '", name, "' is stored as ", type, " x ", comps, ", the state has ", L::type, " x ",
+          L::components);
+    if (units != T::units)
+      bad("field '", name, "' has units '", units, "', the state's are '", T::units, "'");
     const std::size_t n = total * L::components;
     if (nbytes != n * sizeof(typename L::V))
       bad("field '", name, "' holds ", nbytes, " bytes, expected ", n * sizeof(typename L::V));
@@ -307,7 +323,8 @@ void load_checkpoint(const std::filesystem::path& path, State& state, checkpoint
     if (type > 2) bad("section '", name, "' has unknown type ", int(type));
     const std::size_t elem = type == 0 ? 1 : 8;
     if (nbytes % elem != 0) bad("section '", name, "' size ", nbytes, " is not a multiple of ", elem);
-    std::string data(r.take(static_cast<std::size_t>(nbytes), "a section's data"), static_cast<std::size_t>(nbytes));
+    std::string data(r.take(static_cast<std::size_t>(nbytes), "a section's data"),
+                     static_cast<std::size_t>(nbytes));
     list.push_back({std::move(name), static_cast<section_type>(type), nbytes / elem, std::move(data)});
   }
   if (!r.done()) bad("unread bytes after the last section");

@@ -58,7 +58,8 @@ class csv_writer {
       while (std::getline(in, first) && first.starts_with("#")) {
       }
       if (first != header)
-        fail("csv_writer '", path_.string(), "': cannot append: its header \"", first, "\" differs from \"", header, "\"");
+        fail("csv_writer '", path_.string(), "': cannot append: its header \"", first, "\" differs from \"",
+             header, "\"");
       write_header = false;
     }
     out_.open(path_, mode == csv_mode::append ? std::ios::app : std::ios::trunc);
@@ -78,8 +79,8 @@ class csv_writer {
   /// Writes one row; its width must equal the number of columns.
   void row(std::span<const double> values) {
     if (values.size() != columns_.size())
-      fail("csv_writer '", path_.string(), "': row ", rows_, " has ", values.size(), " values, the header has ",
-           columns_.size(), " columns");
+      fail("csv_writer '", path_.string(), "': row ", rows_, " has ", values.size(),
+           " values, the header has ", columns_.size(), " columns");
     std::string line;
     char buf[64];
     for (std::size_t k = 0; k < values.size(); ++k) {
@@ -94,7 +95,9 @@ class csv_writer {
     ++rows_;
   }
   /// Writes one row from a braced list.
-  void row(std::initializer_list<double> values) { row(std::span<const double>(values.begin(), values.size())); }
+  void row(std::initializer_list<double> values) {
+    row(std::span<const double>(values.begin(), values.size()));
+  }
 
   const std::vector<csv_column>& columns() const { return columns_; }  ///< the columns
   index_t rows() const { return rows_; }                              ///< rows written by this writer

@@ -1,15 +1,16 @@
 #pragma once
 /// \file io/lsmps_checkpoint.hpp
-/// \brief Checkpoint and restart of an LSMPS simulation (scheme::lsmps_semi_implicit): the real particles through
-/// io::save_checkpoint plus sections for the time, the counters, the Δt controller and the split/merge ledger.
+/// \brief Checkpoint and restart of an LSMPS simulation (scheme::lsmps_semi_implicit): the real particles
+/// through io::save_checkpoint plus sections for the time, the counters, the Δt controller and the
+/// split/merge ledger.
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
 ///   `lsmps.counters`            int64 ×41, lsmps_counters' integer counters in the order of
 ///                               detail::lsmps_counter_values (older files hold 24 to 40, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
-///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume, left_domain_volume} (older files: the
-///                               first two, the third read as 0)
+///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume, left_domain_volume} (older files:
+///                               the first two, the third read as 0)
 ///   `lsmps.time_step`           int64 {halvings, held, changes}
 ///   `lsmps.ledger.counts`       int64 {steps, splits, merges}         conservation_ledger totals
 ///   `lsmps.ledger.sums`         doubles {dV, dVu (D), dKE, dL (1 or 3), max volume ulps, max momentum ulps}
@@ -46,12 +47,12 @@ inline std::vector<std::int64_t> lsmps_counter_values(const scheme::lsmps_counte
   return v;
 }
 inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.size();
-/// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both 2026-12-01)
-/// or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
-/// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33, 2026-12-03) or
-/// collision_coincident and shift_coincident (34, 35, 2026-12-03) or left_domain (36, 2026-12-03) or
-/// active_set_released (37, 2026-12-05) or ppe_cold_restarts (38, 2026-12-05) or ppe_solves and ppe_factorisations
-/// (39, 40, 2026-12-07): still read, the missing counters 0.
+/// The counts of files written before filter_amplifying (24) and filter_tapered (25) existed (both
+/// 2026-12-01) or before the own-loop guard's four (26–29, 2026-12-02), ppe_fallbacks (30, 2026-12-02) or
+/// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33,
+/// 2026-12-03) or collision_coincident and shift_coincident (34, 35, 2026-12-03) or left_domain (36,
+/// 2026-12-03) or active_set_released (37, 2026-12-05) or ppe_cold_restarts (38, 2026-12-05) or ppe_solves
+/// and ppe_factorisations (39, 40, 2026-12-07): still read, the missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 
@@ -93,25 +94,27 @@ void add_simulation_sections(checkpoint_sections& s, const scheme::lsmps_semi_im
   s.add_int64s("lsmps.active_set_held", held);
 }
 
-/// \brief Writes the LSMPS simulation's real particles (not this step's copies and boundary particles) and its
-/// sections to `path` (atomically, io::save_checkpoint). `extra`: the caller's own sections (e.g. a case's
-/// running measurements), saved beside the simulation's; their names must not start with "lsmps.".
+/// \brief Writes the LSMPS simulation's real particles (not this step's copies and boundary particles) and
+/// its sections to `path` (atomically, io::save_checkpoint). `extra`: the caller's own sections (e.g. a
+/// case's running measurements), saved beside the simulation's; their names must not start with "lsmps.".
 template <class Scene>
 void save_simulation(const std::filesystem::path& path, const scheme::lsmps_semi_implicit<Scene>& sim,
                      checkpoint_sections extra = {}) {
   for (const std::string& n : extra.names())
-    if (n.rfind("lsmps.", 0) == 0) fail("save_simulation: '", path.string(), "': section name '", n, "' is reserved");
+    if (n.rfind("lsmps.", 0) == 0)
+      fail("save_simulation: '", path.string(), "': section name '", n, "' is reserved");
   add_simulation_sections(extra, sim);
   typename scheme::lsmps_semi_implicit<Scene>::state_type real = sim.state();
   real.clear_ghosts();
   save_checkpoint(path, real, extra);
 }
 
-/// \brief Restores an LSMPS simulation written by save_simulation into `sim`, which must be new (constructed with
-/// the same scene, parameters, walls and pressure boundary, never stepped). `sections` (optional) receives every
-/// section of the file, the caller's own included. Refuses, with an mpskit::error naming the file: everything
-/// load_checkpoint refuses (another dimension or field list, e.g. a classic scheme's checkpoint), a missing or
-/// malformed section, and everything lsmps_semi_implicit::restore refuses. On error `sim` is unchanged.
+/// \brief Restores an LSMPS simulation written by save_simulation into `sim`, which must be new (constructed
+/// with the same scene, parameters, walls and pressure boundary, never stepped). `sections` (optional)
+/// receives every section of the file, the caller's own included. Refuses, with an mpskit::error naming the
+/// file: everything load_checkpoint refuses (another dimension or field list, e.g. a classic scheme's
+/// checkpoint), a missing or malformed section, and everything lsmps_semi_implicit::restore refuses. On error
+/// `sim` is unchanged.
 template <class Scene>
 void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_implicit<Scene>& sim,
                      checkpoint_sections* sections = nullptr) {
@@ -123,15 +126,16 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
   checkpoint_sections s;
   load_checkpoint(path, st, s);
   const auto expect = [&](std::string_view name, std::size_t got, std::size_t want) {
-    if (got != want) fail("load_simulation: '", file, "': section '", name, "' holds ", got, " values, expected ", want);
+    if (got != want)
+      fail("load_simulation: '", file, "': section '", name, "' holds ", got, " values, expected ", want);
   };
   const std::vector<double> time = s.get_doubles("lsmps.time");
   expect("lsmps.time", time.size(), 2);
   const std::vector<std::int64_t> cv = s.get_int64s("lsmps.counters");
   if (cv.size() < detail::lsmps_counter_count_min || cv.size() > detail::lsmps_counter_count)
     fail("load_simulation: '", file, "': section 'lsmps.counters' holds ", cv.size(), " values, expected ",
-         detail::lsmps_counter_count, " (or ", detail::lsmps_counter_count_min, " to ", detail::lsmps_counter_count - 1,
-         " from older files)");
+         detail::lsmps_counter_count, " (or ", detail::lsmps_counter_count_min, " to ",
+         detail::lsmps_counter_count - 1, " from older files)");
   const std::vector<double> bv = s.get_doubles("lsmps.boundary_volumes");
   if (bv.size() != 2 && bv.size() != 3)
     fail("load_simulation: '", file, "': section 'lsmps.boundary_volumes' holds ", bv.size(),
@@ -181,7 +185,8 @@ void load_simulation(const std::filesystem::path& path, scheme::lsmps_semi_impli
   }
   std::vector<particle_id> held;
   if (s.contains("lsmps.active_set_held"))
-    for (const std::int64_t id : s.get_int64s("lsmps.active_set_held")) held.push_back(static_cast<particle_id>(id));
+    for (const std::int64_t id : s.get_int64s("lsmps.active_set_held"))
+      held.push_back(static_cast<particle_id>(id));
   try {
     sim.restore(std::move(st), time[0], time[1], c, ts, t, static_cast<long>(lc[0]), std::move(held));
   } catch (const mpskit::error& e) {

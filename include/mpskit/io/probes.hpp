@@ -52,8 +52,8 @@ concept PointInterpolation = requires(const I& in, const points<D>& x, const vec
 };
 
 /// \brief LSMPS type B of first order at a point (Tamai & Koshizuka 2014; Tanaka 2018 eqs. 47–52 with
-/// the polynomial basis truncated to p̂(d) = [1, d/re]): M = Σ_j w_j p̂_j p̂_jᵀ, φ(q) = e₀ᵀ M⁻¹ Σ_j w_j p̂_j φ_j,
-/// so c_j = w_j p̂_jᵀ M⁻¹ e₀ (M is symmetric). Exact for fields linear in x whenever M is regular.
+/// the polynomial basis truncated to p̂(d) = [1, d/re]): M = Σ_j w_j p̂_j p̂_jᵀ, φ(q) = e₀ᵀ M⁻¹ Σ_j w_j p̂_j
+/// φ_j, so c_j = w_j p̂_jᵀ M⁻¹ e₀ (M is symmetric). Exact for fields linear in x whenever M is regular.
 /// Scaling d by re (instead of the particle diameter) changes only the conditioning, not the value.
 template <int D, Kernel K = kernel::quadratic>
 class lsmps_b1_interpolation final {
@@ -111,13 +111,13 @@ class kernel_interpolation final {
   }
 };
 
-/// \brief The weights c for a value at q (φ(q) ≈ Σ_k c_k φ_{cand_k}): cand = the real particles j with accept(j)
-/// and |x_j − q| < re, in index order; false when `interp` refuses the neighbourhood (too few or degenerate).
-/// Used by probe_set and by runners that sample a point themselves.
+/// \brief The weights c for a value at q (φ(q) ≈ Σ_k c_k φ_{cand_k}): cand = the real particles j with
+/// accept(j) and |x_j − q| < re, in index order; false when `interp` refuses the neighbourhood (too few or
+/// degenerate). Used by probe_set and by runners that sample a point themselves.
 template <ParticleState State, class Interp, class Accept>
   requires PointInterpolation<Interp, State::dim> && std::predicate<const Accept&, index_t>
-bool point_weights(const State& s, const vec<State::dim>& q, double re, const Accept& accept, const Interp& interp,
-                   std::vector<index_t>& cand, std::vector<double>& c) {
+bool point_weights(const State& s, const vec<State::dim>& q, double re, const Accept& accept,
+                   const Interp& interp, std::vector<index_t>& cand, std::vector<double>& c) {
   cand.clear();
   const double re2 = re * re;
   for (index_t j = 0; j < s.n_real(); ++j)
@@ -148,10 +148,14 @@ class probe_set {
   probe_set(std::filesystem::path csv, std::vector<probe_point<D>> probes, double re, index_t every = 1,
             kind_mask kinds = mask_of(kind::fluid) | mask_of(kind::wall), csv_mode mode = csv_mode::truncate,
             Interp interp = {})
-      : probes_(std::move(probes)), re_(re), every_(every), kinds_(kinds), interp_(std::move(interp)),
+      : probes_(std::move(probes)),
+        re_(re),
+        every_(every),
+        kinds_(kinds),
+        interp_(std::move(interp)),
         csv_(check(csv, probes_, re, every), columns(probes_), mode,
-             {std::string("mpskit probes: ") + std::string(Interp::description) + ", re = " + fmt(re) + " m, every " +
-              std::to_string(every) + " steps"}) {}
+             {std::string("mpskit probes: ") + std::string(Interp::description) + ", re = " + fmt(re) +
+              " m, every " + std::to_string(every) + " steps"}) {}
 
   /// Samples when step % every == 0; returns true when a row was written.
   bool sample(const State& s, double t, index_t step) {
@@ -189,14 +193,15 @@ class probe_set {
     os << v;
     return os.str();
   }
-  static const std::filesystem::path& check(const std::filesystem::path& csv, const std::vector<probe_point<D>>& pr,
-                                            double re, index_t every) {
+  static const std::filesystem::path& check(const std::filesystem::path& csv,
+                                            const std::vector<probe_point<D>>& pr, double re, index_t every) {
     if (!(std::isfinite(re) && re > 0.0))
       fail("probe_set '", csv.string(), "': re = ", re, ": must be a finite length > 0 [m]");
     if (every < 1) fail("probe_set '", csv.string(), "': every = ", every, ": must be >= 1");
     if (pr.empty()) fail("probe_set '", csv.string(), "': no probe points");
     for (const auto& p : pr)
-      if (!p.x.allFinite()) fail("probe_set '", csv.string(), "': probe '", p.name, "' has a non-finite position");
+      if (!p.x.allFinite())
+        fail("probe_set '", csv.string(), "': probe '", p.name, "' has a non-finite position");
     return csv;
   }
   static std::vector<csv_column> columns(const std::vector<probe_point<D>>& pr) {
@@ -246,9 +251,11 @@ template <ParticleState State>
 flow_integrals integrals(const State& s, double rho, const vec<State::dim>& g, double particle_volume = 0.0,
                          kind_mask kinds = mask_of(kind::fluid)) {
   constexpr bool has_volume = State::template has<field::volume>;
-  if (!(std::isfinite(rho) && rho > 0.0)) fail("integrals: rho = ", rho, ": must be a finite density > 0 [kg/m^3]");
+  if (!(std::isfinite(rho) && rho > 0.0))
+    fail("integrals: rho = ", rho, ": must be a finite density > 0 [kg/m^3]");
   if (!has_volume && !(std::isfinite(particle_volume) && particle_volume > 0.0))
-    fail("integrals: particle_volume = ", particle_volume, ": must be > 0 [m^D] (the state has no volume field)");
+    fail("integrals: particle_volume = ", particle_volume,
+         ": must be > 0 [m^D] (the state has no volume field)");
   flow_integrals r;
   for (index_t i = 0; i < s.n_real(); ++i) {
     if (!in_mask(kinds, s.kinds()[static_cast<std::size_t>(i)])) continue;
@@ -268,8 +275,10 @@ flow_integrals integrals(const State& s, double rho, const vec<State::dim>& g, d
 /// in `kinds`, plus `offset` (e.g. l0/2 to count the particle's extent; Martin & Moyce's z is measured
 /// from the back wall, so subtract its position). NaN when no particle counts.
 template <ParticleState State>
-double front_position(const State& s, int axis = 0, double offset = 0.0, kind_mask kinds = mask_of(kind::fluid)) {
-  if (axis < 0 || axis >= State::dim) fail("front_position: axis = ", axis, ": must be in [0, ", State::dim, ")");
+double front_position(const State& s, int axis = 0, double offset = 0.0,
+                      kind_mask kinds = mask_of(kind::fluid)) {
+  if (axis < 0 || axis >= State::dim)
+    fail("front_position: axis = ", axis, ": must be in [0, ", State::dim, ")");
   double front = -std::numeric_limits<double>::infinity();
   bool any = false;
   for (index_t i = 0; i < s.n_real(); ++i)
@@ -282,18 +291,18 @@ double front_position(const State& s, int axis = 0, double offset = 0.0, kind_ma
 
 /// \brief The largest connected body among the first n particles with counted(i): particles i and j are
 /// linked when |x_i − x_j| < link · (d_i + d_j)/2, and a body is a connected component of these links
-/// (core/union_find.hpp over a cell grid of size link · max d). On the periodic axes of `dom` the distance is the
-/// minimum image (search::domain), so a body that crosses the period box's side is one body. Returns one flag per
-/// particle (1 for the members of the body with the largest Σ d^D, ties by its lowest index; 0 elsewhere, and all 0
-/// when no particle counts). Refused: n beyond x or diam, link not finite and > 0, a bad domain, a counted particle
-/// with a non-finite position or a diameter not finite and > 0, or one more than 4e18 cells from the origin along
-/// a non-periodic axis (the cell index is an int64_t).
-/// Ours, for measures that should not follow spray: a surge front taken over this body ignores clusters that
-/// have left the bulk (Martin & Moyce measured the leading edge of the surge). The default link 1.5 is the merge
-/// radius α_r of Tanaka 2018 §4.4: a gap wider than half a diameter between two particles' extents separates them.
+/// (core/union_find.hpp over a cell grid of size link · max d). On the periodic axes of `dom` the distance is
+/// the minimum image (search::domain), so a body that crosses the period box's side is one body. Returns one
+/// flag per particle (1 for the members of the body with the largest Σ d^D, ties by its lowest index; 0
+/// elsewhere, and all 0 when no particle counts). Refused: n beyond x or diam, link not finite and > 0, a bad
+/// domain, a counted particle with a non-finite position or a diameter not finite and > 0, or one more than
+/// 4e18 cells from the origin along a non-periodic axis (the cell index is an int64_t). Ours, for measures
+/// that should not follow spray: a surge front taken over this body ignores clusters that have left the bulk
+/// (Martin & Moyce measured the leading edge of the surge). The default link 1.5 is the merge radius α_r of
+/// Tanaka 2018 §4.4: a gap wider than half a diameter between two particles' extents separates them.
 template <int D, class Counted>
-std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, index_t n, const Counted& counted,
-                               const search::domain<D>& dom, double link = 1.5) {
+std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, index_t n,
+                               const Counted& counted, const search::domain<D>& dom, double link = 1.5) {
   if (n < 0 || n > x.cols() || n > diam.size())
     fail("largest_body: n = ", n, " exceeds the positions (", x.cols(), ") or diameters (", diam.size(), ")");
   if (!(link > 0.0) || !std::isfinite(link)) fail("largest_body: link = ", link, ": must be finite and > 0");
@@ -309,9 +318,9 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
     d_max = std::max(d_max, diam[i]);
   }
   if (ids.empty()) return member;
-  // Cells: size h = link · max d on the open axes (every link is shorter than one cell); on a periodic axis m cells
-  // of P/m >= h across the period (m >= 1, at most 4e18; with m < 3 the neighbour cells repeat, which only repeats
-  // checks).
+  // Cells: size h = link · max d on the open axes (every link is shorter than one cell); on a periodic axis m
+  // cells of P/m >= h across the period (m >= 1, at most 4e18; with m < 3 the neighbour cells repeat, which
+  // only repeats checks).
   const double h = link * d_max;
   std::array<double, D> cell_size{};
   std::array<std::int64_t, D> cells{};
@@ -330,8 +339,8 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
   for (index_t i : ids)  // the cell index (and its neighbours' ±1) must fit an int64_t
     for (int a = 0; a < D; ++a)
       if (!dom.periodic[static_cast<std::size_t>(a)] && !(std::abs(x(a, i) / h) < 4e18))
-        fail("largest_body: particle ", i, " lies at ", x(a, i), " along axis ", a, ", beyond 4e18 cells of ", h,
-             " (link x the largest diameter) from the origin");
+        fail("largest_body: particle ", i, " lies at ", x(a, i), " along axis ", a, ", beyond 4e18 cells of ",
+             h, " (link x the largest diameter) from the origin");
   using key = std::array<std::int64_t, D>;
   auto cell = [&](index_t i) {
     const vec<D> y = dom.wrap(x.col(i));
@@ -339,8 +348,8 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
     for (int a = 0; a < D; ++a) {
       const auto as = static_cast<std::size_t>(a);
       if (dom.periodic[as])  // in [0, m): rounding may put a wrapped y[a] at the box's top
-        k[as] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor((y[a] - dom.lo[a]) / cell_size[as])),
-                                         0, cells[as] - 1);
+        k[as] = std::clamp<std::int64_t>(
+            static_cast<std::int64_t>(std::floor((y[a] - dom.lo[a]) / cell_size[as])), 0, cells[as] - 1);
       else
         k[as] = static_cast<std::int64_t>(std::floor(y[a] / h));
     }
@@ -376,20 +385,22 @@ std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, 
       ++off[static_cast<std::size_t>(a)];
     }
   }
-  // Roots are the lowest index of their body (union_find links to the smaller root), so ties go to the lowest index.
+  // Roots are the lowest index of their body (union_find links to the smaller root), so ties go to the lowest
+  // index.
   std::vector<double> size(static_cast<std::size_t>(n), 0.0);
   for (index_t i : ids) size[static_cast<std::size_t>(sets.find(i))] += std::pow(diam[i], D);
   index_t best = ids.front();
   for (index_t i : ids)
-    if (sets.find(i) == i && size[static_cast<std::size_t>(i)] > size[static_cast<std::size_t>(best)]) best = i;
+    if (sets.find(i) == i && size[static_cast<std::size_t>(i)] > size[static_cast<std::size_t>(best)])
+      best = i;
   for (index_t i : ids) member[static_cast<std::size_t>(i)] = sets.find(i) == best;
   return member;
 }
 
 /// largest_body without periodic axes.
 template <int D, class Counted>
-std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, index_t n, const Counted& counted,
-                               double link = 1.5) {
+std::vector<char> largest_body(const points<D>& x, const Eigen::VectorXd& diam, index_t n,
+                               const Counted& counted, double link = 1.5) {
   return largest_body(x, diam, n, counted, search::domain<D>{}, link);
 }
 

@@ -26,13 +26,14 @@ namespace mpskit::io {
 
 /// What one progress report says.
 struct progress_info {
-  double time = 0.0;          ///< simulated time [s]
-  double end_time = std::numeric_limits<double>::quiet_NaN();  ///< simulated end time [s] (NaN: unknown, no ETA)
-  index_t step = 0;           ///< steps done
-  double dt = 0.0;            ///< current time step [s]
-  index_t ppe_iterations = 0; ///< linear-solver iterations of the last step
-  index_t particles = 0;      ///< real particles
-  double wall_seconds = 0.0;  ///< wall time since the run started [s] (the caller's clock)
+  double time = 0.0;  ///< simulated time [s]
+  /// simulated end time [s] (NaN: unknown, no ETA)
+  double end_time = std::numeric_limits<double>::quiet_NaN();
+  index_t step = 0;                              ///< steps done
+  double dt = 0.0;                               ///< current time step [s]
+  index_t ppe_iterations = 0;                    ///< linear-solver iterations of the last step
+  index_t particles = 0;                         ///< real particles
+  double wall_seconds = 0.0;                     ///< wall time since the run started [s] (the caller's clock)
 };
 
 /// How a progress sink prints.
@@ -79,7 +80,8 @@ inline std::string format_progress(const progress_info& p, double t0, double wal
 class progress_sink {
  public:
   /// Prints to `os` at most every `interval` wall seconds (>= 0).
-  explicit progress_sink(std::ostream& os = std::cerr, double interval = 1.0, progress_mode mode = progress_mode::automatic)
+  explicit progress_sink(std::ostream& os = std::cerr, double interval = 1.0,
+                         progress_mode mode = progress_mode::automatic)
       : os_(&os), interval_(interval) {
     if (!(interval >= 0.0) || !std::isfinite(interval))
       fail("progress_sink: interval = ", interval, ": must be a finite number of seconds >= 0");
@@ -149,7 +151,9 @@ struct run_summary {
   index_t guarded_particles = 0;     ///< Σ over steps of particles put back by the wall-crossing guard
   index_t excluded_particles = 0;    ///< Σ over steps of particles excluded (isolated, failed operators)
   /// Particle-steps per wall second (0 when no wall time was measured).
-  double particle_steps_per_second() const { return wall_seconds > 0.0 ? particle_steps / wall_seconds : 0.0; }
+  double particle_steps_per_second() const {
+    return wall_seconds > 0.0 ? particle_steps / wall_seconds : 0.0;
+  }
 };
 
 /// \brief Accumulates per-step counters into a run_summary.
@@ -214,8 +218,8 @@ inline void print_summary(std::ostream& os, const run_summary& s) {
     << "  steps:                     " << s.steps << "\n"
     << "  wall time:                 " << format_duration(s.wall_seconds) << " (" << std::setprecision(6)
     << s.wall_seconds << " s)\n"
-    << "  particle-steps per second: " << std::setprecision(4) << std::scientific << s.particle_steps_per_second()
-    << std::defaultfloat << "\n"
+    << "  particle-steps per second: " << std::setprecision(4) << std::scientific
+    << s.particle_steps_per_second() << std::defaultfloat << "\n"
     << "  PPE iterations:            mean " << std::fixed << std::setprecision(2) << s.ppe_iterations_mean
     << std::defaultfloat << ", max " << s.ppe_iterations_max << "\n"
     << "  pinned components:         " << s.pinned_components << "\n"

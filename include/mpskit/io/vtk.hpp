@@ -164,28 +164,33 @@ void write_vtu(const std::filesystem::path& path, const State& state, const vtu_
   xml += "<?xml version=\"1.0\"?>\n<!-- mpskit particles: ";
   xml += opt.include_ghosts ? "real and ghost" : "real only";
   xml += "; units of each array in its 'units' attribute (docs/io.md) -->\n";
-  xml += "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n";
+  xml +=
+      "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+      "header_type=\"UInt64\">\n";
   xml += "  <UnstructuredGrid>\n";
   if (opt.time || opt.step) {
     xml += "    <FieldData>\n";
     if (opt.time)
-      xml += "      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" units=\"s\" format=\"ascii\">" +
-             detail::format_double(*opt.time) + "</DataArray>\n";
+      xml +=
+          "      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" units=\"s\" "
+          "format=\"ascii\">" +
+          detail::format_double(*opt.time) + "</DataArray>\n";
     if (opt.step)
       xml += "      <DataArray type=\"Int64\" Name=\"CycleIndex\" NumberOfTuples=\"1\" format=\"ascii\">" +
              std::to_string(*opt.step) + "</DataArray>\n";
     xml += "    </FieldData>\n";
   }
-  xml += "    <Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfCells=\"" + std::to_string(n) + "\">\n";
+  xml += "    <Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfCells=\"" + std::to_string(n) +
+         "\">\n";
   xml += "      <PointData>\n";
   for (const auto& b : point_data) detail::write_data_array(xml, appended, b, enc, "        ");
   xml += "      </PointData>\n      <Points>\n";
   detail::write_data_array(xml, appended, points_blob, enc, "        ");
   xml += "      </Points>\n      <Cells>\n";
-  detail::write_data_array(xml, appended, {"connectivity", "Int64", "", 1, detail::bytes_of(conn.data(), un)}, enc,
-                           "        ");
-  detail::write_data_array(xml, appended, {"offsets", "Int64", "", 1, detail::bytes_of(offsets.data(), un)}, enc,
-                           "        ");
+  detail::write_data_array(xml, appended, {"connectivity", "Int64", "", 1, detail::bytes_of(conn.data(), un)},
+                           enc, "        ");
+  detail::write_data_array(xml, appended, {"offsets", "Int64", "", 1, detail::bytes_of(offsets.data(), un)},
+                           enc, "        ");
   detail::write_data_array(xml, appended, {"types", "UInt8", "", 1, detail::bytes_of(types.data(), un)}, enc,
                            "        ");
   xml += "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n";
@@ -218,12 +223,14 @@ class pvd_series {
   void add(double t, const std::filesystem::path& vtu) {
     if (!std::isfinite(t)) fail("pvd_series '", path_.string(), "': time ", t, " is not finite");
     if (!entries_.empty() && t < entries_.back().time)
-      fail("pvd_series '", path_.string(), "': time ", t, " is before the last entry's time ", entries_.back().time,
-           " (times must not decrease)");
-    const std::filesystem::path base = path_.has_parent_path() ? path_.parent_path() : std::filesystem::path(".");
-    std::filesystem::path rel = vtu.is_absolute() || base.is_absolute()
-                                    ? std::filesystem::absolute(vtu).lexically_relative(std::filesystem::absolute(base))
-                                    : vtu.lexically_relative(base);
+      fail("pvd_series '", path_.string(), "': time ", t, " is before the last entry's time ",
+           entries_.back().time, " (times must not decrease)");
+    const std::filesystem::path base =
+        path_.has_parent_path() ? path_.parent_path() : std::filesystem::path(".");
+    std::filesystem::path rel =
+        vtu.is_absolute() || base.is_absolute()
+            ? std::filesystem::absolute(vtu).lexically_relative(std::filesystem::absolute(base))
+            : vtu.lexically_relative(base);
     if (rel.empty()) rel = vtu;
     entries_.push_back({t, rel});
     write();
@@ -231,8 +238,9 @@ class pvd_series {
 
   /// Rewrites the .pvd from the current entries (atomic).
   void write() const {
-    std::string xml = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-                      "  <Collection>\n";
+    std::string xml =
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+        "  <Collection>\n";
     for (const auto& e : entries_) {
       xml += "    <DataSet timestep=\"" + detail::format_double(e.time) + "\" group=\"\" part=\"0\" file=\"";
       detail::xml_escape(xml, e.file.generic_string());
@@ -254,14 +262,17 @@ class pvd_series {
 /// to "<prefix>.pvd". The prefix's directory is created when missing.
 class vtk_series {
  public:
-  /// Series at `prefix` (e.g. "out/dam_break"); options apply to every file (time and step are set per write).
-  explicit vtk_series(std::filesystem::path prefix, vtu_options opt = {}, std::vector<pvd_entry> existing = {})
+  /// Series at `prefix` (e.g. "out/dam_break"); options apply to every file (time and step are set per
+  /// write).
+  explicit vtk_series(std::filesystem::path prefix, vtu_options opt = {},
+                      std::vector<pvd_entry> existing = {})
       : prefix_(std::move(prefix)), opt_(opt), pvd_(pvd_path_of(prefix_), std::move(existing)) {
     count_ = static_cast<index_t>(pvd_.entries().size());
     if (prefix_.has_parent_path()) {
       std::error_code ec;
       std::filesystem::create_directories(prefix_.parent_path(), ec);
-      if (ec) fail("vtk_series: cannot create directory '", prefix_.parent_path().string(), "': ", ec.message());
+      if (ec)
+        fail("vtk_series: cannot create directory '", prefix_.parent_path().string(), "': ", ec.message());
     }
   }
 

@@ -110,7 +110,8 @@ class vtu_reader {
       bad("VTKFile type is not \"UnstructuredGrid\"");
     if (const std::string* bo = root.attr("byte_order"); !bo || *bo != "LittleEndian" || !little_endian)
       bad("byte_order must be LittleEndian on a little-endian machine");
-    if (root.attr("compressor")) bad("compressed data (compressor=\"" + *root.attr("compressor") + "\") is not supported");
+    if (root.attr("compressor"))
+      bad("compressed data (compressor=\"" + *root.attr("compressor") + "\") is not supported");
     header_size_ = 4;
     if (const std::string* h = root.attr("header_type")) {
       if (*h == "UInt64") header_size_ = 8;
@@ -194,12 +195,14 @@ class vtu_reader {
     if (!type || vtk_type_size(*type) == 0) bad(where + ": missing or unknown type");
     a.type = *type;
     if (const std::string* u = n.attr("units")) a.units = *u;
-    if (!a.units.empty() && a.name.ends_with(" [" + a.units + "]")) a.name.resize(a.name.size() - a.units.size() - 3);
+    if (!a.units.empty() && a.name.ends_with(" [" + a.units + "]"))
+      a.name.resize(a.name.size() - a.units.size() - 3);
     a.components = 1;
     if (const std::string* c = n.attr("NumberOfComponents")) {
       int k = 0;
       const auto r = std::from_chars(c->data(), c->data() + c->size(), k);
-      if (r.ec != std::errc{} || r.ptr != c->data() + c->size() || k < 1) bad(where + ": bad NumberOfComponents");
+      if (r.ec != std::errc{} || r.ptr != c->data() + c->size() || k < 1)
+        bad(where + ": bad NumberOfComponents");
       a.components = k;
     }
     if (comps > 0 && a.components != comps)
@@ -217,7 +220,8 @@ class vtu_reader {
       std::size_t o = 0;
       if (!off || std::from_chars(off->data(), off->data() + off->size(), o).ec != std::errc{})
         bad(where + ": missing or bad offset");
-      if (o > src_.size() - appended_) bad(where + ": offset " + *off + " is past the end of the file (truncated?)");
+      if (o > src_.size() - appended_)
+        bad(where + ": offset " + *off + " is past the end of the file (truncated?)");
       a.bytes = payload(std::string_view(src_).substr(appended_), o, where);
     } else if (*format == "ascii") {
       a.bytes = ascii(n.text, a.type, where);
@@ -340,7 +344,8 @@ void read_state(const vtu_file& f, State& state) {
     const vtu_array& a = std::same_as<T, field::position> ? f.points : f.point_array(T::name);
     if constexpr (T::shape == field_shape::vector) {
       const std::vector<double> v = a.values<double>();
-      if (a.components != 3) bad("array '" + a.name + "' has " + std::to_string(a.components) + " components, not 3");
+      if (a.components != 3)
+        bad("array '" + a.name + "' has " + std::to_string(a.components) + " components, not 3");
       for (std::size_t i = 0; i < n; ++i) {
         for (int c = 0; c < D; ++c) s(c, static_cast<index_t>(i)) = v[3 * i + static_cast<std::size_t>(c)];
         if (D == 2 && v[3 * i + 2] != 0.0)

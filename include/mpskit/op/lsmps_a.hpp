@@ -261,7 +261,8 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     return G;
   }
 
-  /// ⟨∇²φ_a⟩_i of D fields from one neighbour sweep: entry a is laplacian(x, nl, i, phi[a], filter) to the bit.
+  /// ⟨∇²φ_a⟩_i of D fields from one neighbour sweep: entry a is laplacian(x, nl, i, phi[a], filter) to the
+  /// bit.
   template <class Filter = all_neighbours>
   vec<D> laplacians(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                     const std::array<Eigen::VectorXd, D>& phi, const Filter& filter = {}) const {
@@ -393,20 +394,23 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     return b;
   }
 
-  /// Eq. 45 for D fields in one sweep: column a is moment_vector(x, nl, i, phi[a], filter), the same terms added
-  /// in the same order (so the same to the bit).
+  /// Eq. 45 for D fields in one sweep: column a is moment_vector(x, nl, i, phi[a], filter), the same terms
+  /// added in the same order (so the same to the bit).
   template <class Filter>
   Eigen::Matrix<double, basis_size, D> moment_vectors(const points<D>& x, const search::neighbour_list<D>& nl,
                                                       index_t i, const std::array<Eigen::VectorXd, D>& phi,
                                                       const Filter& filter) const {
-    return moment_columns(x, nl, i, filter, [&](int a, index_t j) { return phi[static_cast<std::size_t>(a)][j]; });
+    return moment_columns(x, nl, i, filter,
+                          [&](int a, index_t j) { return phi[static_cast<std::size_t>(a)][j]; });
   }
 
-  /// Eq. 45 for the D columns value(a, ·), a < D, in one sweep: column a gets w_ij (value(a, j) − value(a, i))
-  /// p(x_ij/L_i), and a Neumann point j adds w_ij L_i (∂φ/∂n)_j p_n to every column, as moment_vector does.
+  /// Eq. 45 for the D columns value(a, ·), a < D, in one sweep: column a gets w_ij (value(a, j) − value(a,
+  /// i)) p(x_ij/L_i), and a Neumann point j adds w_ij L_i (∂φ/∂n)_j p_n to every column, as moment_vector
+  /// does.
   template <class Filter, class Value>
   Eigen::Matrix<double, basis_size, D> moment_columns(const points<D>& x, const search::neighbour_list<D>& nl,
-                                                      index_t i, const Filter& filter, const Value& value) const {
+                                                      index_t i, const Filter& filter,
+                                                      const Value& value) const {
     Eigen::Matrix<double, basis_size, D> B = Eigen::Matrix<double, basis_size, D>::Zero();
     vector pv;
     vec<D> vi;

@@ -93,10 +93,11 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_b final {
   }
 
   /// The same fit into `st`, every member overwritten, with the scratch `ws`: `st`'s and `ws`'s vectors keep
-  /// their capacity (no allocation in a loop over points; the same numbers bit for bit as the returning form).
+  /// their capacity (no allocation in a loop over points; the same numbers bit for bit as the returning
+  /// form).
   template <SizeModel S, class Filter>
-  void stencil(const points<D>& x, const vec<D>& xq, double l, std::span<const index_t> candidates, const S& size,
-               const Filter& filter, point_stencil& st, workspace& ws) const {
+  void stencil(const points<D>& x, const vec<D>& xq, double l, std::span<const index_t> candidates,
+               const S& size, const Filter& filter, point_stencil& st, workspace& ws) const {
     if (!(std::isfinite(l) && l > 0.0))
       fail("lsmps_b: point diameter l = ", l, ": must be a finite number > 0");
     st.x = xq;

@@ -38,10 +38,14 @@ struct solve_report {
   Eigen::ComputationInfo info = Eigen::Success;  ///< Success, NoConvergence or NumericalIssue
   long iterations = 0;                           ///< iterations used
   double residual = 0.0;                         ///< relative residual |A x − b| / |b| reached
-  bool lagged_retry = false;  ///< a solve on lagged factors failed and was repeated with fresh ones (eigen_iterative)
-  bool breakdown_restart = false;  ///< the iterate was not finite and the solve was restarted from 0 (eigen_iterative)
-  bool cold_restart = false;  ///< the warm-started solve did not converge and was repeated from 0 (eigen_iterative)
-  bool fallback = false;      ///< the primary solver failed and the fallback solver made this solve (ppe::with_fallback)
+  /// a solve on lagged factors failed and was repeated with fresh ones (eigen_iterative)
+  bool lagged_retry = false;
+  /// the iterate was not finite and the solve was restarted from 0 (eigen_iterative)
+  bool breakdown_restart = false;
+  /// the warm-started solve did not converge and was repeated from 0 (eigen_iterative)
+  bool cold_restart = false;
+  /// the primary solver failed and the fallback solver made this solve (ppe::with_fallback)
+  bool fallback = false;
 };
 
 /// A linear solver over `matrix`: `compute(A)` then `solve(b, x)` with x the warm start on entry.

@@ -105,7 +105,8 @@ struct det_f final {
   static double determinant(const mat<D>& A) {
     if constexpr (D == 2) return A(0, 0) * A(1, 1) - A(0, 1) * A(1, 0);
     else
-      return A(0, 0) * (A(1, 1) * A(2, 2) - A(1, 2) * A(2, 1)) - A(0, 1) * (A(1, 0) * A(2, 2) - A(1, 2) * A(2, 0)) +
+      return A(0, 0) * (A(1, 1) * A(2, 2) - A(1, 2) * A(2, 1)) -
+             A(0, 1) * (A(1, 0) * A(2, 2) - A(1, 2) * A(2, 0)) +
              A(0, 2) * (A(1, 0) * A(2, 1) - A(1, 1) * A(2, 0));
   }
 

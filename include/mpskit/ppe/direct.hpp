@@ -1,9 +1,9 @@
 #pragma once
 /// \file ppe/direct.hpp
 /// \brief A sparse direct factorisation behind the ppe::LinearSolver API (the shared part of ppe::sparse_lu,
-/// ppe::umfpack and ppe::cholmod): compute() copies the CSR matrix to the factorisation's column-major type and
-/// factorises; solve() ignores the warm start, reports 0 iterations and the true relative residual, and reports
-/// NumericalIssue when that residual exceeds solver_params::tolerance or x is not finite.
+/// ppe::umfpack and ppe::cholmod): compute() copies the CSR matrix to the factorisation's column-major type
+/// and factorises; solve() ignores the warm start, reports 0 iterations and the true relative residual, and
+/// reports NumericalIssue when that residual exceeds solver_params::tolerance or x is not finite.
 #include <Eigen/SparseCore>
 #include <limits>
 #include <memory>
@@ -20,9 +20,12 @@ class direct_solver {
   static constexpr bool requires_symmetric = Symmetric;
   direct_solver() : s_(std::make_unique<EigenSolver>()) {}
   /// Takes the stopping rule of the iterative solvers: only `tolerance` is read (the residual check).
-  explicit direct_solver(const solver_params& p) : p_(p), s_(std::make_unique<EigenSolver>()) { p_.validate(); }
-  direct_solver(const direct_solver& o) : p_(o.p_), s_(std::make_unique<EigenSolver>()) {}  ///< copies the params only
-  direct_solver& operator=(const direct_solver& o) {  ///< copies the params only
+  explicit direct_solver(const solver_params& p) : p_(p), s_(std::make_unique<EigenSolver>()) {
+    p_.validate();
+  }
+  direct_solver(const direct_solver& o)
+      : p_(o.p_), s_(std::make_unique<EigenSolver>()) {}  ///< copies the params only
+  direct_solver& operator=(const direct_solver& o) {      ///< copies the params only
     p_ = o.p_;
     s_ = std::make_unique<EigenSolver>();
     A_ = nullptr;

@@ -1,11 +1,12 @@
 #pragma once
 /// \file ppe/fallback.hpp
-/// \brief ppe::with_fallback<Primary, Fallback>: a LinearSolver that solves with Primary (an iterative solver)
-/// and, only when Primary fails (its preconditioner fails, it does not converge — also after its restart from 0,
-/// solver_params::cold_restart — or its iterate is not finite, e.g. a BiCGSTAB breakdown that its own restart from
-/// 0, solver_params::breakdown_restart, did not mend),
-/// solves the same system again with Fallback (a direct solver: ppe::sparse_lu, ppe::umfpack). Counted:
-/// fallbacks() here, solve_report::fallback per solve (both steppers sum it in counters().ppe_fallbacks). Ours, not in the papers (docs/run.md, "A direct fallback").
+/// \brief ppe::with_fallback<Primary, Fallback>: a LinearSolver that solves with Primary (an iterative
+/// solver) and, only when Primary fails (its preconditioner fails, it does not converge — also after its
+/// restart from 0, solver_params::cold_restart — or its iterate is not finite, e.g. a BiCGSTAB breakdown that
+/// its own restart from 0, solver_params::breakdown_restart, did not mend), solves the same system again with
+/// Fallback (a direct solver: ppe::sparse_lu, ppe::umfpack). Counted: fallbacks() here,
+/// solve_report::fallback per solve (both steppers sum it in counters().ppe_fallbacks). Ours, not in the
+/// papers (docs/run.md, "A direct fallback").
 ///
 /// The fallback is factorised only when it is needed, so a run in which Primary never fails costs one copy of
 /// the warm start per solve. A singular system still fails (the fallback reports it): the fallback catches a
@@ -33,8 +34,9 @@ class with_fallback {
   Primary& primary() { return primary_; }
   Fallback& fallback() { return fallback_; }
   long fallbacks() const { return fallbacks_; }  ///< solves the fallback made, so far
-  /// The primary's incomplete factorisations so far (ILUT, ILU(0): ppe::detail::eigen_iterative::factorisations);
-  /// only for a primary that counts them. The fallback's direct factorisations are fallbacks().
+  /// The primary's incomplete factorisations so far (ILUT, ILU(0):
+  /// ppe::detail::eigen_iterative::factorisations); only for a primary that counts them. The fallback's
+  /// direct factorisations are fallbacks().
   long factorisations() const
     requires requires(const Primary& s) { s.factorisations(); }
   {

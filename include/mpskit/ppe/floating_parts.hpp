@@ -19,9 +19,10 @@ struct floating_part {
 };
 
 /// Whether every part of the graph of A + Aᵀ holds a row with dirichlet[r] ≠ 0 (nothing to pin): one
-/// union–find pass over A's entries (core/union_find.hpp: path halving, the smaller row index as the root), no
-/// transpose. The free-surface flows' common case, checked first by find_floating_parts: on Tanaka's obstacle
-/// dam break the transpose the search below needs took 9 % of the run (docs/performance.md "Floating parts").
+/// union–find pass over A's entries (core/union_find.hpp: path halving, the smaller row index as the root),
+/// no transpose. The free-surface flows' common case, checked first by find_floating_parts: on Tanaka's
+/// obstacle dam break the transpose the search below needs took 9 % of the run (docs/performance.md "Floating
+/// parts").
 inline bool every_part_anchored(const matrix& A, const std::vector<std::uint8_t>& dirichlet) {
   const index_t m = A.rows();
   union_find sets(m);
@@ -80,10 +81,10 @@ std::vector<floating_part> search_floating_parts(const matrix& A, const std::vec
 }
 
 /// The parts of the graph of A (of A + Aᵀ when `symmetric` is false) none of whose rows has
-/// dirichlet[r] ≠ 0. key(r) orders the rows for the pin (e.g. the particle id of row r). When every part has a
-/// Dirichlet row (every_part_anchored) the answer is empty and no search is made; otherwise the parts are those
-/// of search_floating_parts, members in its order (so the pinned solve is the same to the bit as before the
-/// check was added).
+/// dirichlet[r] ≠ 0. key(r) orders the rows for the pin (e.g. the particle id of row r). When every part has
+/// a Dirichlet row (every_part_anchored) the answer is empty and no search is made; otherwise the parts are
+/// those of search_floating_parts, members in its order (so the pinned solve is the same to the bit as before
+/// the check was added).
 template <class Key>
 std::vector<floating_part> find_floating_parts(const matrix& A, const std::vector<std::uint8_t>& dirichlet,
                                                bool symmetric, const Key& key) {

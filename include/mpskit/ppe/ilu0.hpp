@@ -1,12 +1,12 @@
 #pragma once
 /// \file ppe/ilu0.hpp
-/// \brief ILU(0): incomplete LU factorisation with no fill, an Eigen preconditioner (Saad, Iterative Methods for
-/// Sparse Linear Systems, 2nd ed., 2003, §10.3.2, Algorithm 10.4, the IKJ variant). L (unit lower) and U are kept
-/// on the pattern of A, and (LU)_ij = a_ij at every stored (i, j) (Saad §10.3.2; tested in tests/test_flow.cpp).
-/// Ours: not in the MPS papers, which name no preconditioner. Factorising is one sweep over the pattern (no sorting,
-/// no dropping: Eigen's IncompleteLUT spends most of its time there); applying is two triangular sweeps, sequential
-/// (docs/performance.md, "ILU(0) for the LSMPS PPE": on the 2D dam-break PPE 8 % less wall time than Jacobi at
-/// 1250 particles, 35 % at 5000, 49 % at 20 000).
+/// \brief ILU(0): incomplete LU factorisation with no fill, an Eigen preconditioner (Saad, Iterative Methods
+/// for Sparse Linear Systems, 2nd ed., 2003, §10.3.2, Algorithm 10.4, the IKJ variant). L (unit lower) and U
+/// are kept on the pattern of A, and (LU)_ij = a_ij at every stored (i, j) (Saad §10.3.2; tested in
+/// tests/test_flow.cpp). Ours: not in the MPS papers, which name no preconditioner. Factorising is one sweep
+/// over the pattern (no sorting, no dropping: Eigen's IncompleteLUT spends most of its time there); applying
+/// is two triangular sweeps, sequential (docs/performance.md, "ILU(0) for the LSMPS PPE": on the 2D dam-break
+/// PPE 8 % less wall time than Jacobi at 1250 particles, 35 % at 5000, 49 % at 20 000).
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -58,9 +58,9 @@ class incomplete_lu0 final {
   incomplete_lu0& compute(const M& A) {
     return factorize(A);
   }
-  /// z = (LU)⁻¹ b: forward sweep with the unit lower factor, backward with the upper one. The result is a buffer
-  /// kept between calls (valid until the next call): no allocation per application. Precondition: info() is
-  /// Success (after a failed factorisation the factors are cleared and solve is the identity).
+  /// z = (LU)⁻¹ b: forward sweep with the unit lower factor, backward with the upper one. The result is a
+  /// buffer kept between calls (valid until the next call): no allocation per application. Precondition:
+  /// info() is Success (after a failed factorisation the factors are cleared and solve is the identity).
   template <class R>
   const Eigen::VectorXd& solve(const R& b) const {
     MPSKIT_ASSERT(info_ == Eigen::Success && "incomplete_lu0: solve after a failed factorisation");
@@ -76,7 +76,8 @@ class incomplete_lu0 final {
     }
     for (Eigen::Index i = n - 1; i >= 0; --i) {
       double s = z_[i];
-      for (std::ptrdiff_t p = diag_[static_cast<std::size_t>(i)] + 1; p < outer[i + 1]; ++p) s -= a[p] * z_[inner[p]];
+      for (std::ptrdiff_t p = diag_[static_cast<std::size_t>(i)] + 1; p < outer[i + 1]; ++p)
+        s -= a[p] * z_[inner[p]];
       z_[i] = s * inv_diag_[static_cast<std::size_t>(i)];
     }
     return z_;
@@ -93,8 +94,8 @@ class incomplete_lu0 final {
       fail(Eigen::InvalidInput);
       return;
     }
-    // Eigen keeps a compressed matrix's inner indices sorted in each row (the sweeps below rely on it); a matrix
-    // built otherwise is sorted here.
+    // Eigen keeps a compressed matrix's inner indices sorted in each row (the sweeps below rely on it); a
+    // matrix built otherwise is sorted here.
     if (!rows_sorted()) sort_rows();
     const std::ptrdiff_t* outer = lu_.outerIndexPtr();
     const std::ptrdiff_t* inner = lu_.innerIndexPtr();
@@ -150,7 +151,8 @@ class incomplete_lu0 final {
     return true;
   }
   void sort_rows() {
-    Eigen::SparseMatrix<double, Eigen::ColMajor, std::ptrdiff_t> t = lu_;  // transposing copies sort the indices
+    Eigen::SparseMatrix<double, Eigen::ColMajor, std::ptrdiff_t> t =
+        lu_;  // transposing copies sort the indices
     lu_ = t;
     lu_.makeCompressed();
   }

@@ -1,26 +1,29 @@
 #pragma once
 /// \file ppe/ilut.hpp
-/// \brief ILUT with Eigen's factors, bit for bit, in less time: `ppe::incomplete_lut` is Eigen's IncompleteLUT
-/// (Saad's dual-threshold ILUT, Saad, Iterative Methods for Sparse Linear Systems, 2nd ed., 2003, §10.4.1,
-/// Algorithm 10.6, as Eigen 3.4 implements it: AMD ordering of A + Aᵀ; multipliers at or below the drop tolerance
-/// and U entries at or below it × the row's 2-norm dropped; with p = ⌊(⌊fill_factor × nnz(A)/n⌋ + 1)/2⌋, each row
-/// keeps its p largest multipliers in L and its p − 1 largest entries beside the diagonal in U) with its
-/// factorisation rewritten for speed and nothing else changed.
+/// \brief ILUT with Eigen's factors, bit for bit, in less time: `ppe::incomplete_lut` is Eigen's
+/// IncompleteLUT (Saad's dual-threshold ILUT, Saad, Iterative Methods for Sparse Linear Systems, 2nd ed.,
+/// 2003, §10.4.1, Algorithm 10.6, as Eigen 3.4 implements it: AMD ordering of A + Aᵀ; multipliers at or below
+/// the drop tolerance and U entries at or below it × the row's 2-norm dropped; with p = ⌊(⌊fill_factor
+/// × nnz(A)/n⌋ + 1)/2⌋, each row keeps its p largest multipliers in L and its p − 1 largest entries beside
+/// the diagonal in U) with its factorisation rewritten for speed and nothing else changed.
 ///
-/// Two loops take most of Eigen's `IncompleteLUT::factorize` on the PPE matrices (perf on the 3D duct of label
-/// `poiseuille_multires`, 2026-12-07: 55 % and 14 % of its samples; the factorisation was 18 % of the label):
-///  - the next row to eliminate is found by a linear scan for the smallest pending column (`minCoeff` over the
-///    pending part of the row, once per elimination: quadratic in the row's lower length, which fill makes long);
-///    here a binary min-heap of the pending columns gives the same ascending order (the columns are distinct);
+/// Two loops take most of Eigen's `IncompleteLUT::factorize` on the PPE matrices (perf on the 3D duct of
+/// label `poiseuille_multires`, 2026-12-07: 55 % and 14 % of its samples; the factorisation was 18 % of the
+/// label):
+///  - the next row to eliminate is found by a linear scan for the smallest pending column (`minCoeff` over
+///    the pending part of the row, once per elimination: quadratic in the row's lower length, which fill
+///    makes long); here a binary min-heap of the pending columns gives the same ascending order (the columns
+///    are distinct);
 ///  - the diagonal of each earlier row is found by walking its L part; here its position is kept per row.
-/// Every floating-point operation is Eigen's, in Eigen's order: the row's norm in storage order, each elimination
-/// in ascending column order with row k's U entries in their stored order, fill values −fact·u_kj, the
-/// multipliers in elimination order, the same compaction of U and Eigen's own `internal::QuickSplit` on the same
-/// arrays, the factors stored through the same sparse insertion calls. So the stored L and U (values, column
-/// indices, their order in each row) are Eigen's. The solve is Eigen's triangular sweeps with each row's diagonal
-/// found by its kept position rather than by walking the row's L part (the walk took 12 % of Eigen's solve in the
-/// 2D multi-diameter channel). tests/test_flow.cpp (label `solver`) compares the factors and the solves with
-/// Eigen's bit for bit. docs/performance.md, "ILUT with Eigen's factors in less time".
+/// Every floating-point operation is Eigen's, in Eigen's order: the row's norm in storage order, each
+/// elimination in ascending column order with row k's U entries in their stored order, fill values
+/// −fact·u_kj, the multipliers in elimination order, the same compaction of U and Eigen's own
+/// `internal::QuickSplit` on the same arrays, the factors stored through the same sparse insertion calls. So
+/// the stored L and U (values, column indices, their order in each row) are Eigen's. The solve is Eigen's
+/// triangular sweeps with each row's diagonal found by its kept position rather than by walking the row's L
+/// part (the walk took 12 % of Eigen's solve in the 2D multi-diameter channel). tests/test_flow.cpp (label
+/// `solver`) compares the factors and the solves with Eigen's bit for bit. docs/performance.md, "ILUT with
+/// Eigen's factors in less time".
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -32,12 +35,13 @@
 
 namespace mpskit::ppe {
 
-/// Eigen::IncompleteLUT<double, std::ptrdiff_t> with the factorisation above and a solve that reads each row's
-/// diagonal position, in the interface Eigen's iterative solvers expect of a preconditioner. The base is protected:
-/// its own factorize and solve, which would not keep the diagonal positions, cannot be reached from outside.
-/// As Eigen's, a zero row makes info() NumericalIssue (the factors are then not usable: solve asserts), and a zero
-/// pivot is replaced by √droptol × the row's norm. An empty (0 × 0) matrix has empty factors (Eigen's factorize
-/// divides by its size). solve() writes buffers kept in the object: one solve at a time per object.
+/// Eigen::IncompleteLUT<double, std::ptrdiff_t> with the factorisation above and a solve that reads each
+/// row's diagonal position, in the interface Eigen's iterative solvers expect of a preconditioner. The base
+/// is protected: its own factorize and solve, which would not keep the diagonal positions, cannot be reached
+/// from outside. As Eigen's, a zero row makes info() NumericalIssue (the factors are then not usable: solve
+/// asserts), and a zero pivot is replaced by √droptol × the row's norm. An empty (0 × 0) matrix has empty
+/// factors (Eigen's factorize divides by its size). solve() writes buffers kept in the object: one solve at a
+/// time per object.
 class incomplete_lut : protected Eigen::IncompleteLUT<double, std::ptrdiff_t> {
   using base = Eigen::IncompleteLUT<double, std::ptrdiff_t>;
 
@@ -61,8 +65,8 @@ class incomplete_lut : protected Eigen::IncompleteLUT<double, std::ptrdiff_t> {
     factorize(A);
     return *this;
   }
-  /// Eigen's IncompleteLUT::factorize (Eigen 3.4, IncompleteLUT.h), operation for operation; analyzePattern(A)
-  /// must have been called on A's pattern.
+  /// Eigen's IncompleteLUT::factorize (Eigen 3.4, IncompleteLUT.h), operation for operation;
+  /// analyzePattern(A) must have been called on A's pattern.
   template <class M>
   incomplete_lut& factorize(const M& amat) {
     using Eigen::Index;
@@ -113,8 +117,8 @@ class incomplete_lut : protected Eigen::IncompleteLUT<double, std::ptrdiff_t> {
         rownorm += Eigen::numext::abs2(it.value());
       }
       std::make_heap(heap_.begin(), heap_.end(), std::greater<>{});
-      // 2 - a zero row: NumericalIssue, the factors left incomplete (as Eigen's); the marks are reset by the next
-      // factorisation's assign
+      // 2 - a zero row: NumericalIssue, the factors left incomplete (as Eigen's); the marks are reset by the
+      // next factorisation's assign
       if (rownorm == 0) {
         m_info = Eigen::NumericalIssue;
         return *this;
@@ -154,8 +158,8 @@ class incomplete_lut : protected Eigen::IncompleteLUT<double, std::ptrdiff_t> {
         lvals_.push_back(fact);
         lcols_.push_back(minrow);
       }
-      // 4 - keep the largest multipliers (Eigen's QuickSplit on the same arrays), the diagonal, then U, stored
-      // with Eigen's insertion calls
+      // 4 - keep the largest multipliers (Eigen's QuickSplit on the same arrays), the diagonal, then U,
+      // stored with Eigen's insertion calls
       const Index sizel = static_cast<Index>(lvals_.size());
       Index len = std::min(sizel, nnzL);
       {
@@ -197,11 +201,11 @@ class incomplete_lut : protected Eigen::IncompleteLUT<double, std::ptrdiff_t> {
     m_info = Eigen::Success;
     return *this;
   }
-  /// z = (LU)⁻¹ b with Eigen's operations (IncompleteLUT::_solve_impl: the permutation, the unit-lower sweep summing
-  /// each row's L entries in stored order, the upper sweep summing each row's U entries in stored order and dividing
-  /// by the diagonal, the permutation back), each row's diagonal found by its kept position instead of a walk over
-  /// its L part. The result is a buffer kept between calls (valid until the next call): no allocation per
-  /// application once the buffers have grown.
+  /// z = (LU)⁻¹ b with Eigen's operations (IncompleteLUT::_solve_impl: the permutation, the unit-lower sweep
+  /// summing each row's L entries in stored order, the upper sweep summing each row's U entries in stored
+  /// order and dividing by the diagonal, the permutation back), each row's diagonal found by its kept
+  /// position instead of a walk over its L part. The result is a buffer kept between calls (valid until the
+  /// next call): no allocation per application once the buffers have grown.
   template <class R>
   const Eigen::VectorXd& solve(const Eigen::MatrixBase<R>& b) const {
     eigen_assert(m_factorizationIsOk && m_info == Eigen::Success && "incomplete_lut: no usable factors");
@@ -228,7 +232,8 @@ class incomplete_lut : protected Eigen::IncompleteLUT<double, std::ptrdiff_t> {
 
  private:
   using index_vector = Eigen::Matrix<std::ptrdiff_t, Eigen::Dynamic, 1>;
-  // Work arrays, kept between factorisations (no allocation once they have grown), and the diagonal positions.
+  // Work arrays, kept between factorisations (no allocation once they have grown), and the diagonal
+  // positions.
   std::vector<double> w_;                     // the current row, dense by column
   std::vector<unsigned char> present_;        // whether column j is in the current row
   std::vector<std::ptrdiff_t> heap_;          // pending lower columns (min-heap)

@@ -1,18 +1,18 @@
 #pragma once
 /// \file ppe/interleaved_product.hpp
 /// \brief The PPE matrix's product with a vector, four rows at a time, for the BiCGSTAB solvers
-/// (ppe/eigen_iterative.hpp): the same arithmetic as Eigen's row-major sparse × dense product, so the same bits,
-/// in less time (0.69–0.92× on the benchmark's matrices, −O3; the 3 mm dam break 0.90–0.94× overall).
+/// (ppe/eigen_iterative.hpp): the same arithmetic as Eigen's row-major sparse × dense product, so the same
+/// bits, in less time (0.69–0.92× on the benchmark's matrices, −O3; the 3 mm dam break 0.90–0.94× overall).
 ///
 /// Eigen sums each row in one chain, `tmp += a_ik x_k` in storage order, and finishes the rows one after the
 /// other: each addition waits for the one before it. Here four rows are summed side by side, each in its own
 /// chain and in the same order, so the processor overlaps four chains. Each row's sum is Eigen's (the same
-/// operations in the same order; no reassociation), and y_i += α tmp_i as Eigen does, so the result is the same to
-/// the bit (test "the interleaved product gives Eigen's bits", label solver) — **when the compiler does not fuse
-/// multiply-adds** (no -mfma / -march with FMA, or -ffp-contract=off): with FMA, g++ contracts this loop and Eigen's
-/// differently, and the last bits of some rows differ (each result is as accurate). Measured in
-/// docs/performance.md, "The interleaved sparse product". Ours: an implementation device, not a method of the
-/// papers.
+/// operations in the same order; no reassociation), and y_i += α tmp_i as Eigen does, so the result is the
+/// same to the bit (test "the interleaved product gives Eigen's bits", label solver) — **when the compiler
+/// does not fuse multiply-adds** (no -mfma / -march with FMA, or -ffp-contract=off): with FMA, g++ contracts
+/// this loop and Eigen's differently, and the last bits of some rows differ (each result is as accurate).
+/// Measured in docs/performance.md, "The interleaved sparse product". Ours: an implementation device, not a
+/// method of the papers.
 #include <algorithm>
 #include <cstddef>
 #include <functional>
@@ -38,13 +38,15 @@ namespace mpskit::ppe {
 
 /// y += α A x for the row-major PPE matrix A (compressed or not; x and y distinct). Rows in blocks of four,
 /// each summed in storage order from 0 (Eigen's arithmetic, above). With more than one Eigen thread
-/// (Eigen::nbThreads(), which core/exec.hpp's eigen_threads_scope holds to one for small systems) and more than
-/// 20 000 entries, the blocks are shared among the threads, Eigen's own rule; each row is one thread's, so the
-/// result does not depend on the thread count.
+/// (Eigen::nbThreads(), which core/exec.hpp's eigen_threads_scope holds to one for small systems) and more
+/// than 20 000 entries, the blocks are shared among the threads, Eigen's own rule; each row is one thread's,
+/// so the result does not depend on the thread count.
 inline void add_product(const matrix& A, const double* x, double* y, double alpha) {
   const std::ptrdiff_t n = A.rows();
-  // x and y must not overlap (y is written while x is read); Eigen's own sparse product would use a temporary.
-  MPSKIT_ASSERT(n == 0 || std::less_equal<const double*>()(x + A.cols(), y) || std::less_equal<const double*>()(y + n, x));
+  // x and y must not overlap (y is written while x is read); Eigen's own sparse product would use a
+  // temporary.
+  MPSKIT_ASSERT(n == 0 || std::less_equal<const double*>()(x + A.cols(), y) ||
+                std::less_equal<const double*>()(y + n, x));
   const std::ptrdiff_t* op = A.outerIndexPtr();
   const std::ptrdiff_t* ix = A.innerIndexPtr();
   const double* va = A.valuePtr();
@@ -93,8 +95,8 @@ inline void add_product(const matrix& A, const double* x, double* y, double alph
 namespace detail {
 
 /// The PPE matrix as an Eigen matrix-free operator (Eigen's "matrix-free solvers" pattern): Eigen's BiCGSTAB
-/// multiplies through it, so its products run through add_product. The matrix is not copied and must outlive the
-/// operator. For the solvers only: its products are alias-free (`w = op * w` is refused by add_product's
+/// multiplies through it, so its products run through add_product. The matrix is not copied and must outlive
+/// the operator. For the solvers only: its products are alias-free (`w = op * w` is refused by add_product's
 /// assertion) and a scaled product c * (op * x) is not Eigen's bitwise (Eigen folds c into the entries).
 class interleaved_operator : public Eigen::EigenBase<interleaved_operator> {
  public:
@@ -110,7 +112,8 @@ class interleaved_operator : public Eigen::EigenBase<interleaved_operator> {
   const matrix& sparse() const { return *A_; }  ///< the wrapped matrix
 
   template <class Rhs>
-  Eigen::Product<interleaved_operator, Rhs, Eigen::AliasFreeProduct> operator*(const Eigen::MatrixBase<Rhs>& x) const {
+  Eigen::Product<interleaved_operator, Rhs, Eigen::AliasFreeProduct> operator*(
+      const Eigen::MatrixBase<Rhs>& x) const {
     return Eigen::Product<interleaved_operator, Rhs, Eigen::AliasFreeProduct>(*this, x.derived());
   }
 
@@ -118,8 +121,8 @@ class interleaved_operator : public Eigen::EigenBase<interleaved_operator> {
   const matrix* A_ = nullptr;
 };
 
-/// A preconditioner P of the sparse matrix used with interleaved_operator: Eigen hands it the operator, P gets
-/// the matrix. Everything else (solve, info, the lagged preconditioner's controls) is P's.
+/// A preconditioner P of the sparse matrix used with interleaved_operator: Eigen hands it the operator, P
+/// gets the matrix. Everything else (solve, info, the lagged preconditioner's controls) is P's.
 template <class P>
 class on_sparse : public P {
  public:
@@ -144,7 +147,8 @@ class on_sparse : public P {
 namespace Eigen::internal {
 /// operator × dense vector: y = 0 then y += α A x (Eigen's evalTo and scaleAndAddTo for sparse × dense).
 template <class Rhs>
-struct generic_product_impl<mpskit::ppe::detail::interleaved_operator, Rhs, SparseShape, DenseShape, GemvProduct>
+struct generic_product_impl<mpskit::ppe::detail::interleaved_operator, Rhs, SparseShape, DenseShape,
+                            GemvProduct>
     : generic_product_impl_base<mpskit::ppe::detail::interleaved_operator, Rhs,
                                 generic_product_impl<mpskit::ppe::detail::interleaved_operator, Rhs>> {
   template <class Dest>

@@ -38,7 +38,8 @@ struct mixed final {
   double alpha_p = 0.01;  ///< PND weight α_p (Tanaka & Masunaga use small values, e.g. 0.01)
   void validate() const { validator("ppe::mixed").in_range("alpha_p", alpha_p, 0.0, 1.0).throw_if_any(); }
   double rhs(const source_inputs& in) const {
-    return in.rho / in.dt * in.divergence + in.rho * alpha_p / (in.dt * in.dt) * (in.n0 - in.n_temporary) / in.n0;
+    return in.rho / in.dt * in.divergence +
+           in.rho * alpha_p / (in.dt * in.dt) * (in.n0 - in.n_temporary) / in.n0;
   }
 };
 
@@ -48,7 +49,9 @@ struct mixed_tang_wan final {
   static constexpr bool needs_divergence = true;
   static constexpr bool needs_current_density = true;
   double gamma = 0.01;  ///< γ (0.01 for uniform resolution in seed 004)
-  void validate() const { validator("ppe::mixed_tang_wan").in_range("gamma", gamma, 0.0, 1.0).throw_if_any(); }
+  void validate() const {
+    validator("ppe::mixed_tang_wan").in_range("gamma", gamma, 0.0, 1.0).throw_if_any();
+  }
   double rhs(const source_inputs& in) const {
     return (1.0 - gamma) * in.rho / in.dt * in.divergence -
            gamma * in.rho / (in.dt * in.dt) * (in.n_current - in.n0) / in.n0;

@@ -31,7 +31,8 @@ using suitesparse_matrix = Eigen::SparseMatrix<double, Eigen::ColMajor, SuiteSpa
 using cholmod = detail::direct_solver<Eigen::CholmodSupernodalLLT<detail::suitesparse_matrix, Eigen::Lower>,
                                      detail::suitesparse_matrix, true>;
 /// UMFPACK LU (any non-singular PPE; GPL).
-using umfpack = detail::direct_solver<Eigen::UmfPackLU<detail::suitesparse_matrix>, detail::suitesparse_matrix, false>;
+using umfpack =
+    detail::direct_solver<Eigen::UmfPackLU<detail::suitesparse_matrix>, detail::suitesparse_matrix, false>;
 
 static_assert(LinearSolver<cholmod>);
 static_assert(LinearSolver<umfpack>);

@@ -16,20 +16,20 @@
 /// Bounded (ours, opt-in since 2026-12-01): a particle whose fit amplifies its data, Λ_i = Σ_j |w_ij| > Λ_max
 /// (the Lebesgue constant of the fit at x_i: |û_i| ≤ Λ_i max_j |u_j|), is left alone and counted. With few,
 /// one-sided neighbours (a splash two particles thick against a wall: c ≈ 0.3, six neighbours for the six
-/// coefficients of an order-2 fit) the fit at x_i is an extrapolation with large weights: measured in Tanaka's
-/// dam break at 4 mm, a particle at (6.3, 4.8) m/s whose neighbours span 14.6 m/s got û − u = (13, 52) m/s, the
-/// next step 1177 m/s, and left at 75 m/s (the far-wall impact failure of issue #7). Λ_i depends on the
-/// positions only, so the filter stays linear in u and the eigenvalue analysis below applies to it as it is.
-/// Not the default: with Λ_max = 20 the obstacle case at 2.5 mm (the main example's reference) blows up, and
-/// no threshold tried kept every case (docs/lsmps_scheme.md, "The one-sided-band filter").
+/// coefficients of an order-2 fit) the fit at x_i is an extrapolation with large weights: measured in
+/// Tanaka's dam break at 4 mm, a particle at (6.3, 4.8) m/s whose neighbours span 14.6 m/s got û − u = (13,
+/// 52) m/s, the next step 1177 m/s, and left at 75 m/s (the far-wall impact failure of issue #7). Λ_i depends
+/// on the positions only, so the filter stays linear in u and the eigenvalue analysis below applies to it as
+/// it is. Not the default: with Λ_max = 20 the obstacle case at 2.5 mm (the main example's reference) blows
+/// up, and no threshold tried kept every case (docs/lsmps_scheme.md, "The one-sided-band filter").
 ///
 /// Tapered (ours, opt-in since 2026-12-01): above Λ_t the strength falls as ε_i = ε Λ_t / Λ_i, so the change
-/// ε_i |û_i − u_i| stays below about ε Λ_t times the neighbours' spread however one-sided the fit (counted). Also
-/// a function of the positions only, so linear in u. Measured with Λ_t = 6 (above every fit of the stability
-/// tests, max 5.86): the dam break at 4, 5 and 5.5 mm and the obstacle case at 5 and 2.5 mm get through (peak
-/// speeds below Λ_max = 20's at 4 mm and in the obstacle case, above them at 5 and 5.5 mm), but 4.5 mm fails
-/// (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with both; as the default it breaks five dam-break tests
-/// (docs/lsmps_scheme.md).
+/// ε_i |û_i − u_i| stays below about ε Λ_t times the neighbours' spread however one-sided the fit (counted).
+/// Also a function of the positions only, so linear in u. Measured with Λ_t = 6 (above every fit of the
+/// stability tests, max 5.86): the dam break at 4, 5 and 5.5 mm and the obstacle case at 5 and 2.5 mm get
+/// through (peak speeds below Λ_max = 20's at 4 mm and in the obstacle case, above them at 5 and 5.5 mm), but
+/// 4.5 mm fails (T ≈ 3.08) where Λ_max = 20 passes; 3 mm fails with both; as the default it breaks five
+/// dam-break tests (docs/lsmps_scheme.md).
 ///
 /// Determinism: û is computed from the velocities before the pass (Jacobi style), into a scratch array, so
 /// the result does not depend on the thread count. Neighbour displacements come from the list (minimum image
@@ -60,23 +60,25 @@ struct boundary_filter_params {
   /// too (LSMPS scheme; multi-resolution): a mixed-size stencil is not symmetric either, and the same mode
   /// grows there (measured: a tank at rest with a refined disc, docs/resolution.md). Accepted [1, inf];
   /// inf leaves mixed-size stencils out. Uniform sizes never trigger it; particles created by a pressure
-  /// inflow with the boundary particles' diameter do (3D duct: 0.47 mm beside 0.5 mm, 1.35 → 1.34 % at 0.05 s).
-  /// Read by the LSMPS scheme only (the classic scheme has one spacing l0; it validates but ignores it).
+  /// inflow with the boundary particles' diameter do (3D duct: 0.47 mm beside 0.5 mm, 1.35 → 1.34 % at
+  /// 0.05 s). Read by the LSMPS scheme only (the classic scheme has one spacing l0; it validates but ignores
+  /// it).
   double size_ratio = 1.05;
   /// Λ_max: a particle whose fit has Σ_j |w_ij| above this is left alone (and counted; see the file comment).
   /// Accepted [1, inf]; inf (the default) is the unbounded filter. 20 gets Tanaka's dam break at 4 mm through
   /// the far-wall impact (docs/lsmps_scheme.md).
   double max_amplification = std::numeric_limits<double>::infinity();
   /// Λ_t: a particle whose fit has Σ_j |w_ij| = Λ_i above this is filtered with ε Λ_t / Λ_i instead of ε (and
-  /// counted). Accepted [1, inf]; inf (the default) keeps ε everywhere. With max_amplification too, fits above
-  /// Λ_max are left alone and those between Λ_t and Λ_max tapered. 6 lies above every fit of the stability
-  /// tests (docs/lsmps_scheme.md).
+  /// counted). Accepted [1, inf]; inf (the default) keeps ε everywhere. With max_amplification too, fits
+  /// above Λ_max are left alone and those between Λ_t and Λ_max tapered. 6 lies above every fit of the
+  /// stability tests (docs/lsmps_scheme.md).
   double taper_amplification = std::numeric_limits<double>::infinity();
   /// Throws mpskit::error listing every bad value.
   void validate() const {
     validator v("boundary_filter_params");
     v.in_range("strength", strength, 0.0, 1.0);
-    v.require(size_ratio >= 1.0, "size_ratio", mpskit::detail::concat("is ", size_ratio, "; must be in [1, inf]"));
+    v.require(size_ratio >= 1.0, "size_ratio",
+              mpskit::detail::concat("is ", size_ratio, "; must be in [1, inf]"));
     v.require(max_amplification >= 1.0, "max_amplification",
               mpskit::detail::concat("is ", max_amplification, "; must be in [1, inf]"));
     v.require(taper_amplification >= 1.0, "taper_amplification",
@@ -99,17 +101,20 @@ struct boundary_filter_report {
 /// amplifying (Σ|w| > params.max_amplification) is left alone, one with Σ|w| > params.taper_amplification is
 /// filtered with ε Λ_t / Σ|w|. Returns the counts. `du` is scratch (resized here).
 template <int D, class Exec, class Participates, class Selected>
-boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eigen::VectorXd& L, const search::neighbour_list<D>& nl,
-                        const search::support<search::per_particle_radius>& support, const op::lsmps_params& op,
-                        const Participates& participates, const Selected& selected, index_t n,
-                        const boundary_filter_params& p, const points<D>& src, points<D>& u, points<D>& du) {
+boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eigen::VectorXd& L,
+                                       const search::neighbour_list<D>& nl,
+                                       const search::support<search::per_particle_radius>& support,
+                                       const op::lsmps_params& op, const Participates& participates,
+                                       const Selected& selected, index_t n, const boundary_filter_params& p,
+                                       const points<D>& src, points<D>& u, points<D>& du) {
   if (!(p.strength > 0.0)) return {};
   if (u.cols() < n || x.cols() < n || L.size() < x.cols() || src.cols() < x.cols())
     fail("boundary_filter: n = ", n, " exceeds the velocities (", u.cols(), "), or the positions (", x.cols(),
          ") exceed the sizes (", L.size(), ") or the fitted values (", src.cols(), ")");
   const op::lsmps_b<D, 2> fit(op);
   du.setZero(D, n);
-  std::vector<std::uint8_t> done(static_cast<std::size_t>(n), 0);  // 1 filtered, 2 left alone by the bound, 3 tapered
+  std::vector<std::uint8_t> done(static_cast<std::size_t>(n),
+                                 0);  // 1 filtered, 2 left alone by the bound, 3 tapered
   // Fixed blocks of particles, each with its own scratch (neighbour lists, local positions and sizes, the
   // fit): no allocation per particle once a block has seen its largest neighbourhood (perf of the 2 s dam
   // break of the multires_hard label, 2026-12-06: malloc/free 4.1 % of the run, nearly all from here; 0.5 %
@@ -153,7 +158,8 @@ boundary_filter_report boundary_filter(Exec exec, const points<D>& x, const Eige
         continue;
       }
       const bool taper = lebesgue > p.taper_amplification;
-      du.col(i) = (taper ? p.strength * (p.taper_amplification / lebesgue) : p.strength) * (uhat - src.col(i));
+      du.col(i) =
+          (taper ? p.strength * (p.taper_amplification / lebesgue) : p.strength) * (uhat - src.col(i));
       done[static_cast<std::size_t>(i)] = taper ? 3 : 1;
     }
   });

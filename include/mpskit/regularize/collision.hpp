@@ -47,16 +47,17 @@ struct collision_report {
   double max_dv = 0.0;     ///< max |Δu_i| (m/s)
 };
 
-/// The pair rule of seed 001 eq. 13 for both forms below. For every movable i and participating neighbour j with
-/// |r_ij|² ≤ contact2(i, j) that approaches (r_ij · u_ij < 0):
+/// The pair rule of seed 001 eq. 13 for both forms below. For every movable i and participating neighbour j
+/// with |r_ij|² ≤ contact2(i, j) that approaches (r_ij · u_ij < 0):
 ///   Δu_i += (1 + α2) share(i, j) (r_ij · u_ij)/|r_ij|² r_ij,
-/// share = 1/α3 of the paper (1/2 between equal masses, 1 against an immovable partner). Every Δu_i is read from
-/// the same u (Jacobi); coincident pairs are skipped and counted. The pair momentum m_i Δu_i + m_j Δu_j is zero
-/// when share(i, j) = m_j/(m_i + m_j) (and the list is symmetric).
+/// share = 1/α3 of the paper (1/2 between equal masses, 1 against an immovable partner). Every Δu_i is read
+/// from the same u (Jacobi); coincident pairs are skipped and counted. The pair momentum m_i Δu_i + m_j Δu_j
+/// is zero when share(i, j) = m_j/(m_i + m_j) (and the list is symmetric).
 template <Execution E, int D, class Participates, class Movable, class Contact2, class Share>
-collision_report pair_collisions(E e, const points<D>& x, const points<D>& u, const search::neighbour_list<D>& nl,
-                                 const Participates& participates, const Movable& movable, const Contact2& contact2,
-                                 const Share& share, double alpha2, points<D>& du) {
+collision_report pair_collisions(E e, const points<D>& x, const points<D>& u,
+                                 const search::neighbour_list<D>& nl, const Participates& participates,
+                                 const Movable& movable, const Contact2& contact2, const Share& share,
+                                 double alpha2, points<D>& du) {
   const index_t n = x.cols();
   du.setZero(D, n);
   std::vector<index_t> hits(static_cast<std::size_t>(n), 0), zero(static_cast<std::size_t>(n), 0);
@@ -93,18 +94,20 @@ collision_report pair_collisions(E e, const points<D>& x, const points<D>& u, co
   rep.coincident = reduce(
       e, n, index_t{0}, [&](index_t i) { return zero[static_cast<std::size_t>(i)]; }, add);
   rep.max_dv = reduce(
-      e, n, 0.0, [&](index_t i) { return du.col(i).norm(); }, [](double a, double b) { return std::max(a, b); });
+      e, n, 0.0, [&](index_t i) { return du.col(i).norm(); },
+      [](double a, double b) { return std::max(a, b); });
   return rep;
 }
 
-/// Numbers of the collision stage for particles of different sizes (sized_collisions; the LSMPS scheme's opt-in
-/// stage, lsmps_params::collision, docs/lsmps_scheme.md deviation 17).
+/// Numbers of the collision stage for particles of different sizes (sized_collisions; the LSMPS scheme's
+/// opt-in stage, lsmps_params::collision, docs/lsmps_scheme.md deviation 17).
 struct sized_collision_params {
   double alpha1 = 0.0;  ///< contact distance in units of the pair-mean diameter L_ij = (L_i + L_j)/2; 0: off
   double alpha2 = 0.2;  ///< coefficient of restitution (seed 001's range [0, 0.2])
-  /// Read by the LSMPS stepper (lsmps_params::collision): isolated particles (c < α_c) and their wall copies take
-  /// part too (ours; false: they move ballistically, Tanaka §4.5.1 and issue #7 item 5, and pass through each other
-  /// and into the fluid they fall back on). The functions below take part through their predicates only.
+  /// Read by the LSMPS stepper (lsmps_params::collision): isolated particles (c < α_c) and their wall copies
+  /// take part too (ours; false: they move ballistically, Tanaka §4.5.1 and issue #7 item 5, and pass through
+  /// each other and into the fluid they fall back on). The functions below take part through their predicates
+  /// only.
   bool isolated = false;
   /// Throws mpskit::error listing every bad value.
   void validate() const {
@@ -114,11 +117,11 @@ struct sized_collision_params {
   }
 };
 
-/// Seed 001 eq. 13 between particles of different sizes (ours): contact when |r_ij| ≤ α1 L_ij with the pair-mean
-/// diameter, share(i, j) = V_j/(V_i + V_j) between movable particles (the pair's momentum Σ V u is kept: the
-/// paper's α3 = 2 for equal volumes) and 1 against an immovable partner (α3 = 1). `L` and `V` hold every
-/// particle's diameter and volume (V is read for movable particles only; volumes > 0). Δu into du (D × n), nothing
-/// changed. Throws mpskit::error on bad params or sizes that do not match x.
+/// Seed 001 eq. 13 between particles of different sizes (ours): contact when |r_ij| ≤ α1 L_ij with the
+/// pair-mean diameter, share(i, j) = V_j/(V_i + V_j) between movable particles (the pair's momentum Σ V u is
+/// kept: the paper's α3 = 2 for equal volumes) and 1 against an immovable partner (α3 = 1). `L` and `V` hold
+/// every particle's diameter and volume (V is read for movable particles only; volumes > 0). Δu into du (D
+/// × n), nothing changed. Throws mpskit::error on bad params or sizes that do not match x.
 template <Execution E, int D, class Diameters, class Volumes, class Participates, class Movable>
 collision_report sized_collisions(E e, const points<D>& x, const points<D>& u, const Diameters& L,
                                   const Volumes& V, const search::neighbour_list<D>& nl,
@@ -126,9 +129,10 @@ collision_report sized_collisions(E e, const points<D>& x, const points<D>& u, c
                                   const sized_collision_params& p, points<D>& du) {
   p.validate();
   const index_t n = x.cols();
-  if (u.cols() != n || nl.rows() != n || static_cast<index_t>(L.size()) != n || static_cast<index_t>(V.size()) != n)
-    fail("sized_collisions: x has ", n, " columns but u ", u.cols(), ", the neighbour list ", nl.rows(), " rows, L ",
-         L.size(), " and V ", V.size(), " values (one per particle, the list built on x)");
+  if (u.cols() != n || nl.rows() != n || static_cast<index_t>(L.size()) != n ||
+      static_cast<index_t>(V.size()) != n)
+    fail("sized_collisions: x has ", n, " columns but u ", u.cols(), ", the neighbour list ", nl.rows(),
+         " rows, L ", L.size(), " and V ", V.size(), " values (one per particle, the list built on x)");
   const auto contact2 = [&](index_t i, index_t j) {
     const double r = 0.5 * p.alpha1 * (L[i] + L[j]);
     return r * r;

@@ -22,7 +22,8 @@ struct every_particle {
 /// A collision model in D dimensions: `c.apply(exec, x, u, list, participates, movable, dt)` returns a
 /// report with the number of colliding pairs and the largest velocity change.
 template <class C, int D>
-concept CollisionModel = requires(const C& c, points<D>& x, points<D>& u, const search::neighbour_list<D>& nl) {
+concept CollisionModel = requires(const C& c, points<D>& x, points<D>& u,
+                                  const search::neighbour_list<D>& nl) {
   typename C::params_type;
   { c.apply(exec::seq{}, x, u, nl, every_particle{}, every_particle{}, 0.0).pairs }
       -> std::convertible_to<index_t>;

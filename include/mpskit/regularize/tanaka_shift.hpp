@@ -47,12 +47,12 @@ enum class penalty_direction : std::uint8_t {
 /// Which part of δx eq. 99 projects for particles on the free surface or beside a wall.
 enum class penalty_projection : std::uint8_t {
   with_displacement,  ///< (I − n⊗n) applied to δx = δx* + δx** (eq. 99 as printed)
-  wall_only           ///< eq. 99 on δx* and on the penalty from wall copies as printed; the fluid pairs' overlap
-                      ///< penalty (penalty_direction::pair only) loses just its component into a wall, and a
-                      ///< copy closer than (1 − α_p) L_i/2 (the wall overlaps i) pushes i off the wall
-                      ///< (a deviation, docs/regularize.md: at a contact line the surface and wall normals
-                      ///< together remove every direction in 2D, two particles there closed to 0.34 L and
-                      ///< broke Tanaka's dam break at T ≈ 1.44)
+  wall_only  ///< eq. 99 on δx* and on the penalty from wall copies as printed; the fluid pairs' overlap
+             ///< penalty (penalty_direction::pair only) loses just its component into a wall, and a
+             ///< copy closer than (1 − α_p) L_i/2 (the wall overlaps i) pushes i off the wall
+             ///< (a deviation, docs/regularize.md: at a contact line the surface and wall normals
+             ///< together remove every direction in 2D, two particles there closed to 0.34 L and
+             ///< broke Tanaka's dam break at T ≈ 1.44)
 };
 
 /// Numbers of Tanaka's shifting (Tanaka 2018, parameter table of §2).
@@ -71,10 +71,12 @@ struct tanaka_shift_params {
     if (!(alpha_p >= 0.0 && alpha_p < 1.0))
       v.require(false, "alpha_p", mpskit::detail::concat("is ", alpha_p, ", must be in [0, 1)"));
     if (!(std::isfinite(re_ratio) && re_ratio > 1.0))
-      v.require(false, "re_ratio", mpskit::detail::concat("is ", re_ratio, ", must be a finite number > 1 (R_ij > L_ij)"));
+      v.require(false, "re_ratio",
+                mpskit::detail::concat("is ", re_ratio, ", must be a finite number > 1 (R_ij > L_ij)"));
     else if (std::isfinite(alpha_T) && !(alpha_T < re_ratio))
       v.require(false, "alpha_T",
-                mpskit::detail::concat("is ", alpha_T, ", must be < re_ratio = ", re_ratio, " (eq. 95 divides by R_ij - alpha_T L_ij)"));
+                mpskit::detail::concat("is ", alpha_T, ", must be < re_ratio = ", re_ratio,
+                                       " (eq. 95 divides by R_ij - alpha_T L_ij)"));
     v.throw_if_any();
   }
 };
@@ -117,14 +119,15 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 /// - n_wall (optional, ≥ m columns, unit or 0): a second normal for tangential_only particles near a
 ///   wall (the wall normal of their imaginary copy); eq. 99 then removes the components along n and
 ///   n_wall, so a surface particle at a wall, or a particle in a concave corner, does not slide off it.
-/// - n_wall2 (optional, ≥ m columns, unit or 0): the normal of a second wall the particle is copied onto (a 3D
-///   edge or corner, a 2D corner); eq. 99 removes its component too (ours: Tanaka's eq. 99 has one normal).
+/// - n_wall2 (optional, ≥ m columns, unit or 0): the normal of a second wall the particle is copied onto (a
+///   3D edge or corner, a 2D corner); eq. 99 removes its component too (ours: Tanaka's eq. 99 has one
+///   normal).
 /// - penalty_only (optional, x.cols() entries, set only below active.size(): real particles): rows j with
-///   penalty_only[j] ≠ 0 that do not participate enter eq. 96's per-pair overlap penalty only (not eq. 94, not the
-///   weight sum), so an isolated particle pushes i away when r_ij < (1 − α_p) L_ij (after eqs. 99–100, like every
-///   pair term) and never draws it (ours, opt-in through lsmps_params::shift_isolated_penalty). Needs
-///   penalty_direction::pair: the printed direction −⟨∇c⟩ ignores where j is, and near the surface it points at the
-///   spray.
+///   penalty_only[j] ≠ 0 that do not participate enter eq. 96's per-pair overlap penalty only (not eq. 94,
+///   not the weight sum), so an isolated particle pushes i away when r_ij < (1 − α_p) L_ij (after eqs.
+///   99–100, like every pair term) and never draws it (ours, opt-in through
+///   lsmps_params::shift_isolated_penalty). Needs penalty_direction::pair: the printed direction −⟨∇c⟩
+///   ignores where j is, and near the surface it points at the spray.
 /// Returns the counters; dx is resized to D × m.
 template <int D, Execution E, class Participates>
   requires std::predicate<const Participates&, index_t>
@@ -141,10 +144,13 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
   p.validate();
   const index_t rows = x.cols();
   const index_t m = static_cast<index_t>(active.size());
-  if (nl.rows() != rows) fail("tanaka_shift: the neighbour list has ", nl.rows(), " rows for ", rows, " positions");
+  if (nl.rows() != rows)
+    fail("tanaka_shift: the neighbour list has ", nl.rows(), " rows for ", rows, " positions");
   if (L.size() != rows) fail("tanaka_shift: L has ", L.size(), " entries for ", rows, " positions");
-  if (m > rows) fail("tanaka_shift: active has ", m, " entries for ", rows, " positions (accepted: at most x.cols())");
-  if (grad_c.cols() < m) fail("tanaka_shift: grad_c has ", grad_c.cols(), " columns, need >= active.size() = ", m);
+  if (m > rows)
+    fail("tanaka_shift: active has ", m, " entries for ", rows, " positions (accepted: at most x.cols())");
+  if (grad_c.cols() < m)
+    fail("tanaka_shift: grad_c has ", grad_c.cols(), " columns, need >= active.size() = ", m);
   if (n.cols() < m) fail("tanaka_shift: n has ", n.cols(), " columns, need >= active.size() = ", m);
   if (n_wall && n_wall->cols() < m)
     fail("tanaka_shift: n_wall has ", n_wall->cols(), " columns, need >= active.size() = ", m);
@@ -155,15 +161,18 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     if (static_cast<index_t>(penalty_only->size()) != rows)
       fail("tanaka_shift: penalty_only has ", penalty_only->size(), " entries for ", rows, " positions");
     if (p.penalty != penalty_direction::pair)
-      fail("tanaka_shift: penalty_only needs penalty_direction::pair (the printed direction -grad c does not push "
-           "i away from j)");
+      fail(
+          "tanaka_shift: penalty_only needs penalty_direction::pair (the printed direction -grad c does not "
+          "push "
+          "i away from j)");
     for (index_t j = m; j < rows; ++j)
       if ((*penalty_only)[static_cast<std::size_t>(j)])
         fail("tanaka_shift: penalty_only is set at row ", j, " >= active.size() = ", m,
              " (accepted: real particles only; rows beyond are ghosts, e.g. wall copies)");
   }
   if (static_cast<index_t>(tangential_only.size()) < m)
-    fail("tanaka_shift: tangential_only has ", tangential_only.size(), " entries, need >= active.size() = ", m);
+    fail("tanaka_shift: tangential_only has ", tangential_only.size(),
+         " entries, need >= active.size() = ", m);
   check_diameters("tanaka_shift", L, rows);
 
   const search::support<search::per_particle_radius> sup{search::per_particle_radius{&L, p.re_ratio},
@@ -187,7 +196,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     // copy here; the LSMPS scheme's other ghosts, pressure-boundary particles, have no shifted particle
     // within 2 L_i (scheme/lsmps_semi_implicit.hpp), so they never reach this test.
     vec<D> penalty_wall = vec<D>::Zero();
-    const double wall_edge = p.projection == penalty_projection::wall_only ? 0.5 * (1.0 - p.alpha_p) * Li : 0.0;
+    const double wall_edge =
+        p.projection == penalty_projection::wall_only ? 0.5 * (1.0 - p.alpha_p) * Li : 0.0;
     index_t zero_pairs = 0;
     nl.for_each_neighbour(x, i, sup, [&](index_t j, const vec<D>& xij, double r2) {
       const bool full = participates(j);
@@ -292,16 +302,19 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     return reduce(e, m, index_t{0}, [&](index_t i) { return index_t{v[static_cast<std::size_t>(i)]}; },
                   [](index_t a, index_t b) { return a + b; });
   };
-  rep.active = reduce(e, m, index_t{0}, [&](index_t i) { return index_t{active[static_cast<std::size_t>(i)] != 0}; },
-                      [](index_t a, index_t b) { return a + b; });
+  rep.active = reduce(
+      e, m, index_t{0}, [&](index_t i) { return index_t{active[static_cast<std::size_t>(i)] != 0}; },
+      [](index_t a, index_t b) { return a + b; });
   rep.moved = count(moved);
   rep.limited = count(limited);
   rep.projected = count(projected);
   rep.unprojected = count(unprojected);
-  rep.coincident_pairs = reduce(e, m, index_t{0}, [&](index_t i) { return coincident[static_cast<std::size_t>(i)]; },
-                                [](index_t a, index_t b) { return a + b; });
+  rep.coincident_pairs = reduce(
+      e, m, index_t{0}, [&](index_t i) { return coincident[static_cast<std::size_t>(i)]; },
+      [](index_t a, index_t b) { return a + b; });
   rep.max_shift_over_L = reduce(
-      e, m, 0.0, [&](index_t i) { return dx.col(i).norm() / L[i]; }, [](double a, double b) { return std::max(a, b); });
+      e, m, 0.0, [&](index_t i) { return dx.col(i).norm() / L[i]; },
+      [](double a, double b) { return std::max(a, b); });
   return rep;
 }
 
@@ -318,8 +331,8 @@ struct all_neighbours {
 /// neighbours that define its gradient, e.g. a particle sliding on a floor beside its copy at the wall
 /// velocity, whose δu = u δy / y then grows |u| by a fixed amount per step (Tanaka's dam break at 2 mm).
 /// A field linear over the neighbourhood is left exact where x_i + δx_i stays inside the neighbours' bounding
-/// range of values (the interior). Only the neighbours j with counted(j) enter (default: all). Returns true when
-/// a component was clipped.
+/// range of values (the interior). Only the neighbours j with counted(j) enter (default: all). Returns true
+/// when a component was clipped.
 template <int D, class Neighbours, class Counted = all_neighbours>
 bool limit_to_neighbour_range(vec<D>& u_new, const points<D>& u, index_t i, const Neighbours& neighbours,
                               const Counted& counted = {}) {
@@ -344,7 +357,8 @@ template <int D, Execution E, class GradU>
 void apply_tanaka_shift(E e, const points<D>& dx, const GradU& grad_u, points<D>& x, points<D>& u) {
   const index_t m = dx.cols();
   if (x.cols() < m || u.cols() < m)
-    fail("apply_tanaka_shift: x has ", x.cols(), " and u has ", u.cols(), " columns, need >= dx.cols() = ", m);
+    fail("apply_tanaka_shift: x has ", x.cols(), " and u has ", u.cols(),
+         " columns, need >= dx.cols() = ", m);
   for_each_particle(e, m, [&](index_t i) {
     const vec<D> d = dx.col(i);
     if ((d.array() == 0.0).all()) return;  // unshifted particles keep x and u bitwise

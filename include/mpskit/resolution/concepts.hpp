@@ -43,9 +43,10 @@ concept ResolutionCompatibleWalls = !std::is_same_v<std::remove_cvref_t<Walls>, 
 /// For a stepper: `require_compatible_walls<Scene::walls>();` fails to compile with a readable message.
 template <class Walls>
 constexpr void require_compatible_walls() {
-  static_assert(ResolutionCompatibleWalls<Walls>,
-                "mpskit: resolution::split_merge cannot run with wall::dummy_layers: small fluid particles leak "
-                "between larger wall particles (Tanaka 2018 §4.5.1); use polygon walls (wall::imaginary)");
+  static_assert(
+      ResolutionCompatibleWalls<Walls>,
+      "mpskit: resolution::split_merge cannot run with wall::dummy_layers: small fluid particles leak "
+      "between larger wall particles (Tanaka 2018 §4.5.1); use polygon walls (wall::imaginary)");
 }
 
 }  // namespace mpskit::resolution

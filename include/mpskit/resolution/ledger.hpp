@@ -240,21 +240,23 @@ class conservation_ledger {
   const ledger_step<D>& totals() const { return total_; }
   /// Steps closed.
   long steps() const { return steps_; }
-  /// Sets the totals and the step count (a checkpoint restart); the open step is emptied. Refuses (mpskit::error)
-  /// negative counts, non-finite sums and two fluxes of one name; on error the ledger is unchanged.
+  /// Sets the totals and the step count (a checkpoint restart); the open step is emptied. Refuses
+  /// (mpskit::error) negative counts, non-finite sums and two fluxes of one name; on error the ledger is
+  /// unchanged.
   void restore(const ledger_step<D>& totals, long steps) {
     if (steps < 0 || totals.splits < 0 || totals.merges < 0)
-      fail("conservation_ledger::restore: negative count (steps ", steps, ", splits ", totals.splits, ", merges ",
-           totals.merges, ")");
-    if (!std::isfinite(totals.dV) || !totals.dVu.allFinite() || !std::isfinite(totals.dKE) || !totals.dL.allFinite() ||
-        !(totals.max_volume_ulps >= 0.0) || !(totals.max_momentum_ulps >= 0.0))
+      fail("conservation_ledger::restore: negative count (steps ", steps, ", splits ", totals.splits,
+           ", merges ", totals.merges, ")");
+    if (!std::isfinite(totals.dV) || !totals.dVu.allFinite() || !std::isfinite(totals.dKE) ||
+        !totals.dL.allFinite() || !(totals.max_volume_ulps >= 0.0) || !(totals.max_momentum_ulps >= 0.0))
       fail("conservation_ledger::restore: the totals are not finite (or a largest ulp count is negative)");
     for (std::size_t a = 0; a < totals.fluxes.size(); ++a) {
       const auto& f = totals.fluxes[a];
       if (!std::isfinite(f.volume) || !f.momentum.allFinite())
         fail("conservation_ledger::restore: flux '", f.name, "' is not finite");
       for (std::size_t b = 0; b < a; ++b)
-        if (totals.fluxes[b].name == f.name) fail("conservation_ledger::restore: flux '", f.name, "' appears twice");
+        if (totals.fluxes[b].name == f.name)
+          fail("conservation_ledger::restore: flux '", f.name, "' appears twice");
     }
     total_ = totals;
     steps_ = steps;

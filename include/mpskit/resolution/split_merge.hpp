@@ -17,9 +17,10 @@
 ///  3. Merges: i (L*_i > β_m L_i) with j, both non-isolated fluid and not asking to split, r_ij < α_r L_ij,
 ///     and only if the merged particle would not split at once (trigger at x′ with L′). Pairs are formed
 ///     by iterated mutual nearest neighbours: eligible pairs are taken in increasing (rank, r_ij², lower id,
-///     higher id) order (rank 0 when both ask to merge, 1 otherwise: merge_partners::alike_first), each taken when both ends are still free (greedy matching on a strict total
-///     order = repeated mutual-nearest pairing), so the pairs depend on neither the thread count nor the
-///     input order. Eqs. 72–74 give x′, u′, V′ = V_i + V_j.
+///     higher id) order (rank 0 when both ask to merge, 1 otherwise: merge_partners::alike_first), each taken
+///     when both ends are still free (greedy matching on a strict total order = repeated mutual-nearest
+///     pairing), so the pairs depend on neither the thread count nor the input order. Eqs. 72–74 give x′, u′,
+///     V′ = V_i + V_j.
 ///  4. Every event is checked by the conservation ledger (resolution/ledger.hpp), then all events go through
 ///     ONE particle_state::gather (children and merged particles are new particles with new ids; ghosts are
 ///     dropped), and the global ΣV, ΣVu before/after are compared with the events' sum.
@@ -134,8 +135,8 @@ class target_diameter_fn {
   /// L* at p.
   double operator()(const target_point<D>& p) const { return f_(p); }
   /// The target_point at a position where there is no particle (a start lattice, an inflow point): the wall
-  /// distance from `wall_distance(x)`, called only when the callable reads the context; surface distance +inf and
-  /// index npos. split_merge, which also fills the surface distance and the index, builds its own.
+  /// distance from `wall_distance(x)`, called only when the callable reads the context; surface distance +inf
+  /// and index npos. split_merge, which also fills the surface distance and the index, builds its own.
   template <class WallDistance>
   target_point<D> point(const vec<D>& x, const WallDistance& wall_distance) const {
     target_point<D> p;
@@ -149,7 +150,8 @@ class target_diameter_fn {
   template <class Where>
   double checked(const target_point<D>& p, const char* who, const Where& where) const {
     const double Ls = f_(p);
-    if (!(std::isfinite(Ls) && Ls > 0.0)) fail(who, ": target_diameter returned ", Ls, " at ", where(), ": accepted range (0, inf)");
+    if (!(std::isfinite(Ls) && Ls > 0.0))
+      fail(who, ": target_diameter returned ", Ls, " at ", where(), ": accepted range (0, inf)");
     return Ls;
   }
 
@@ -185,27 +187,28 @@ struct split_merge_params {
   int n_directions_3d = 256;
   /// Children keep a signed wall distance ≥ wall_clearance · L′ (issue #9: L′/2).
   double wall_clearance = 0.5;
-  /// Children of a parent in contact with a wall (signed distance ≤ split_merge_inputs::wall_reach · L, the wall
-  /// model's α_w: it has a copy) keep the wall in contact: the nearer child within wall_contact · L′ of it (ours;
-  /// the paper asks only for the clearance). Without it a first row split three times in a row sat 1.06–1.41 L′
-  /// above the floor, beyond α_w L′, so no copy held the wall there and the PPE failed two steps later
-  /// (docs/resolution.md "Hard cases"). Contact means with any wall (in a corner the side wall may satisfy a
-  /// floor-touching parent), and the rule is stricter than α_w: it can refuse a split whose nearer child would
-  /// still be copied (up to α_w L′), leaving such a particle coarse (counted as refusal::wall_contact).
-  /// Off by default (inf): with 0.75 the multi-diameter channel's PPE stopped
+  /// Children of a parent in contact with a wall (signed distance ≤ split_merge_inputs::wall_reach · L, the
+  /// wall model's α_w: it has a copy) keep the wall in contact: the nearer child within wall_contact · L′ of
+  /// it (ours; the paper asks only for the clearance). Without it a first row split three times in a row sat
+  /// 1.06–1.41 L′ above the floor, beyond α_w L′, so no copy held the wall there and the PPE failed two steps
+  /// later (docs/resolution.md "Hard cases"). Contact means with any wall (in a corner the side wall may
+  /// satisfy a floor-touching parent), and the rule is stricter than α_w: it can refuse a split whose nearer
+  /// child would still be copied (up to α_w L′), leaving such a particle coarse (counted as
+  /// refusal::wall_contact). Off by default (inf): with 0.75 the multi-diameter channel's PPE stopped
   /// converging at step 162 (t = 0.068 s; not yet understood). Accepted [wall_clearance, inf]; 0.75 is the
   /// measured value for a fluid at rest.
   double wall_contact = std::numeric_limits<double>::infinity();
-  /// When the contact rule refuses every direction the other rules admit, split anyway along the direction whose
-  /// nearer child comes closest to the wall, if that child is within split_merge_inputs::wall_reach · L′ (the wall
-  /// model copies it: it holds the wall through its own copies). Ours, opt-in (needs a finite wall_contact).
-  /// Without it a parent whose centre lies between (wall_contact · L′ + δ) and wall_reach · L from a wall is in
-  /// contact but can never keep a child within wall_contact · L′ (δ = (α_t/2) L′, eq. 67; in 2D with α_w = 1 and
-  /// wall_contact = 0.75: between 0.78 L and L), so it stays coarse however small its target: seen 2026-12-05, a
-  /// 5 mm particle 4.6 mm above the floor at the edge of the 1 mm zone of the obstacle case at ratio 5, beside two
-  /// 0.88 mm particles that left at 73 and 169 m/s in the step the run blew up (the refusal inferred, not printed;
-  /// docs/resolution.md "Hard cases" 2b). Counted in split_merge_report::contact_fallbacks. The nearest child is
-  /// chosen, not the least e_i within the copy band (that alternative was run at one spacing only, "Hard cases" 2b).
+  /// When the contact rule refuses every direction the other rules admit, split anyway along the direction
+  /// whose nearer child comes closest to the wall, if that child is within split_merge_inputs::wall_reach
+  /// · L′ (the wall model copies it: it holds the wall through its own copies). Ours, opt-in (needs a finite
+  /// wall_contact). Without it a parent whose centre lies between (wall_contact · L′ + δ) and wall_reach · L
+  /// from a wall is in contact but can never keep a child within wall_contact · L′ (δ = (α_t/2) L′, eq. 67;
+  /// in 2D with α_w = 1 and wall_contact = 0.75: between 0.78 L and L), so it stays coarse however small its
+  /// target: seen 2026-12-05, a 5 mm particle 4.6 mm above the floor at the edge of the 1 mm zone of the
+  /// obstacle case at ratio 5, beside two 0.88 mm particles that left at 73 and 169 m/s in the step the run
+  /// blew up (the refusal inferred, not printed; docs/resolution.md "Hard cases" 2b). Counted in
+  /// split_merge_report::contact_fallbacks. The nearest child is chosen, not the least e_i within the copy
+  /// band (that alternative was run at one spacing only, "Hard cases" 2b).
   bool wall_contact_fallback = false;
   /// Pairing order of the merges (docs/resolution.md): alike_first (default, ours) or nearest.
   merge_partners partners = merge_partners::alike_first;
@@ -222,12 +225,14 @@ struct split_merge_params {
     v.require(alpha_t > 0.0 && alpha_t <= 2.0, "alpha_t",
               mpskit::detail::concat("= ", alpha_t, ": must be in (0, 2] (children α_t L′ apart, eq. 67)"));
     v.require(alpha_r > 0.0 && alpha_r <= 3.0, "alpha_r",
-              mpskit::detail::concat("= ", alpha_r, ": must be in (0, 3] (partners within α_r L_ij; lists reach 3.1 L)"));
+              mpskit::detail::concat("= ", alpha_r,
+                                     ": must be in (0, 3] (partners within α_r L_ij; lists reach 3.1 L)"));
     v.in_range("n_theta", n_theta, 1, 100000);
     v.in_range("n_directions_3d", n_directions_3d, 1, 1000000);
     v.in_range("wall_clearance", wall_clearance, 0.0, 10.0);
     v.require(wall_contact >= wall_clearance, "wall_contact",
-              mpskit::detail::concat("= ", wall_contact, ": must be in [wall_clearance = ", wall_clearance, ", inf]"));
+              mpskit::detail::concat("= ", wall_contact, ": must be in [wall_clearance = ", wall_clearance,
+                                     ", inf]"));
     v.require(!wall_contact_fallback || std::isfinite(wall_contact), "wall_contact_fallback",
               "is on but wall_contact is infinite (no contact rule to fall back from): set wall_contact too");
     v.throw_if_any();
@@ -239,32 +244,32 @@ struct split_merge_params {
 /// the state, real and ghost.
 template <int D>
 struct split_merge_inputs {
-  /// Neighbour list over the state (real + ghosts), holding at least every pair with r_ij < max(α_r, 2 + α_t/2)
-  /// L_ij (a list at R_e = 3.1 does). Required.
+  /// Neighbour list over the state (real + ghosts), holding at least every pair with r_ij < max(α_r, 2
+  /// + α_t/2) L_ij (a list at R_e = 3.1 does). Required.
   const search::neighbour_list<D>* neighbours = nullptr;
-  const Eigen::VectorXd* L = nullptr;                  ///< diameters L = V^(1/D) (required)
-  const points<D>* normals = nullptr;                  ///< outward unit normals (required if a surface particle splits)
-  const std::vector<flag::type>* flags = nullptr;      ///< surface / isolated bits; nullptr: the state's flags
-  const geometry::polygon_set<D>* walls = nullptr;     ///< walls for the children's clearance check (optional)
-  /// A parent within wall_reach · L of a wall is in contact with it (split_merge_params::wall_contact): the wall
-  /// model's copy distance α_w (wall::imaginary_params::alpha_w; the LSMPS scheme passes its own).
+  const Eigen::VectorXd* L = nullptr;  ///< diameters L = V^(1/D) (required)
+  const points<D>* normals = nullptr;  ///< outward unit normals (required if a surface particle splits)
+  const std::vector<flag::type>* flags = nullptr;   ///< surface / isolated bits; nullptr: the state's flags
+  const geometry::polygon_set<D>* walls = nullptr;  ///< walls for the children's clearance check (optional)
+  /// A parent within wall_reach · L of a wall is in contact with it (split_merge_params::wall_contact): the
+  /// wall model's copy distance α_w (wall::imaginary_params::alpha_w; the LSMPS scheme passes its own).
   double wall_reach = 1.0;
 };
 
 /// Why a wanted event did not happen.
 enum class refusal : std::uint8_t {
-  isolated = 0,         ///< the particle is isolated (only non-isolated fluid particles change size)
-  error_function,       ///< split: no direction with e_i < α_e
-  wall,                 ///< split: every direction with e_i < α_e puts a child within wall_clearance·L′ of a wall
-  wall_contact,         ///< split: the parent touches a wall and every remaining direction leaves it out of contact
-  degenerate_normal,    ///< split: a surface particle without a usable normal
-  neighbour_children,   ///< split: its children clashed with those of a neighbour split earlier in the same call
-                        ///< (lower id), and no direction is admissible (eqs. 68–69 and the wall rules) once that
-                        ///< neighbour's children replace it
-  no_partner,           ///< merge: no eligible neighbour with r_ij < α_r L_ij
-  would_split,          ///< merge: every merged particle would split at once (L*(x′) < β_s L′)
-  partner_taken,        ///< merge: every eligible partner merged with another particle
-  disabled,             ///< splitting or merging switched off in params
+  isolated = 0,    ///< the particle is isolated (only non-isolated fluid particles change size)
+  error_function,  ///< split: no direction with e_i < α_e
+  wall,  ///< split: every direction with e_i < α_e puts a child within wall_clearance·L′ of a wall
+  wall_contact,  ///< split: the parent touches a wall and every remaining direction leaves it out of contact
+  degenerate_normal,   ///< split: a surface particle without a usable normal
+  neighbour_children,  ///< split: its children clashed with those of a neighbour split earlier in the same
+                       ///< call (lower id), and no direction is admissible (eqs. 68–69 and the wall rules)
+                       ///< once that neighbour's children replace it
+  no_partner,     ///< merge: no eligible neighbour with r_ij < α_r L_ij
+  would_split,    ///< merge: every merged particle would split at once (L*(x′) < β_s L′)
+  partner_taken,  ///< merge: every eligible partner merged with another particle
+  disabled,       ///< splitting or merging switched off in params
   count_
 };
 inline constexpr int refusal_count = static_cast<int>(refusal::count_);
@@ -311,17 +316,17 @@ struct merge_event {
 /// What one call did.
 template <int D>
 struct split_merge_report {
-  index_t wanted_split = 0;                ///< real fluid particles whose trigger asked for a split
-  index_t wanted_merge = 0;                ///< ... for a merge
-  index_t splits = 0;                      ///< splits done
-  index_t merges = 0;                      ///< merges done
-  index_t redirected = 0;                  ///< splits whose direction was chosen again against a neighbour's children
-  index_t contact_fallbacks = 0;           ///< splits done by split_merge_params::wall_contact_fallback
+  index_t wanted_split = 0;       ///< real fluid particles whose trigger asked for a split
+  index_t wanted_merge = 0;       ///< ... for a merge
+  index_t splits = 0;             ///< splits done
+  index_t merges = 0;             ///< merges done
+  index_t redirected = 0;         ///< splits whose direction was chosen again against a neighbour's children
+  index_t contact_fallbacks = 0;  ///< splits done by split_merge_params::wall_contact_fallback
   std::array<index_t, refusal_count> refused{};  ///< wanted events not done, by reason
   std::vector<split_event<D>> split_events;      ///< every split, in old index order
   std::vector<merge_event<D>> merge_events;      ///< every merge, in pairing order
-  resize_report resize{};                  ///< the one resize (empty when nothing happened)
-  ledger_step<D> ledger{};                 ///< this call's events as the ledger summed them
+  resize_report resize{};                        ///< the one resize (empty when nothing happened)
+  ledger_step<D> ledger{};                       ///< this call's events as the ledger summed them
   /// Refusals for one reason.
   index_t refused_for(refusal r) const { return refused[static_cast<std::size_t>(r)]; }
 };
@@ -377,7 +382,8 @@ template <class Trigger_ = tanaka_thresholds, class Pattern_ = two_way>
 struct split_merge final {
   static_assert(Trigger<Trigger_>, "mpskit: split_merge<Trigger>: Trigger must model resolution::Trigger");
   static_assert(SplitPattern<Pattern_>, "mpskit: split_merge<..., Pattern>: Pattern must model SplitPattern");
-  static_assert(Pattern_::children == 2, "mpskit: split_merge implements Tanaka's two-way pattern only (eqs. 65–74)");
+  static_assert(Pattern_::children == 2,
+                "mpskit: split_merge implements Tanaka's two-way pattern only (eqs. 65–74)");
   using trigger = Trigger_;
   using pattern = Pattern_;
   using fields = field_list<field::volume>;  ///< size is stored as volume (exact halving)
@@ -421,13 +427,15 @@ struct split_merge final {
     return d;
   }
 
-  static constexpr double tie = 1e-12;  ///< relative tolerance under which two directions tie (lower index wins)
+  /// relative tolerance under which two directions tie (lower index wins)
+  static constexpr double tie = 1e-12;
 
   template <int D, class Fields>
   class worker {
    public:
     using state = particle_state<D, Fields>;
-    worker(state& s, const split_merge_inputs<D>& in, const split_merge_params<D>& p) : s_(s), in_(in), p_(p) {
+    worker(state& s, const split_merge_inputs<D>& in, const split_merge_params<D>& p)
+        : s_(s), in_(in), p_(p) {
       check_inputs();
     }
 
@@ -462,7 +470,8 @@ struct split_merge final {
       }
       // 2. Splits.
       for (index_t i = 0; i < n; ++i)
-        if (want_[static_cast<std::size_t>(i)] == want::split && eligible_[static_cast<std::size_t>(i)]) split_cand_.push_back(i);
+        if (want_[static_cast<std::size_t>(i)] == want::split && eligible_[static_cast<std::size_t>(i)])
+          split_cand_.push_back(i);
       if (!p_.split) {
         rep_.refused[static_cast<std::size_t>(refusal::disabled)] += static_cast<index_t>(split_cand_.size());
         split_cand_.clear();
@@ -470,12 +479,14 @@ struct split_merge final {
       if (!in_.normals)
         for (index_t i : split_cand_)
           if (flag_of(i) & flag::surface)
-            fail("split_merge: surface particle ", i, " (id ", id_of(i), ") asks to split but inputs.normals is null "
+            fail("split_merge: surface particle ", i, " (id ", id_of(i),
+                 ") asks to split but inputs.normals is null "
                  "(a surface split is perpendicular to n)");
       choice_.assign(split_cand_.size(), split_choice{});
       const std::vector<vec<D>> dirs = split_directions<D>(p_.n_theta, p_.n_directions_3d);
       for_each_particle(e, static_cast<index_t>(split_cand_.size()), [&](index_t k) {
-        choice_[static_cast<std::size_t>(k)] = choose_direction(split_cand_[static_cast<std::size_t>(k)], dirs);
+        choice_[static_cast<std::size_t>(k)] =
+            choose_direction(split_cand_[static_cast<std::size_t>(k)], dirs);
       });
       resolve_neighbour_splits(dirs);
       for (const split_choice& c : choice_)
@@ -517,7 +528,8 @@ struct split_merge final {
         const vec<D> d = half_offset(i) * c.t;  // eq. 67 (the offset resolve_neighbour_splits assumed)
         const mat<D> G = grad_u(i);
         if (!G.allFinite()) fail("split_merge: grad_u of particle ", i, " (id ", id_of(i), ") is not finite");
-        const vec<D> a = G * d;  // eq. 70: u_i′ = u_i + ⟨∇u⟩_i (x_i′ − x_i), computed once for ± (exact cancellation)
+        const vec<D> a =
+            G * d;  // eq. 70: u_i′ = u_i + ⟨∇u⟩_i (x_i′ − x_i), computed once for ± (exact cancellation)
         child_data cd;
         cd.V = 0.5 * V[i];  // exact
         cd.x = {vec<D>(x.col(i) + d), vec<D>(x.col(i) - d)};
@@ -540,7 +552,8 @@ struct split_merge final {
       }
       // Merges (eqs. 72–74), ledger, then the merged values written into the first member's old slot (the
       // resize copies that slot into the new particle: intensive fields volume-weighted).
-      std::vector<index_t> merge_first(static_cast<std::size_t>(n), npos), merge_second(static_cast<std::size_t>(n), npos);
+      std::vector<index_t> merge_first(static_cast<std::size_t>(n), npos),
+          merge_second(static_cast<std::size_t>(n), npos);
       struct merged_data {
         vec<D> x, u;
         double V;
@@ -552,8 +565,10 @@ struct split_merge final {
         m.V = V[i] + V[j];                                   // eq. 74 (V = L^d)
         const vec<D> xij = in_.neighbours->displacement(x, i, j);
         m.x = merged_position(i, xij, V[j], m.V);            // eq. 72
-        m.u = (V[i] * u.col(i) + V[j] * u.col(j)) / m.V;     // eq. 73 (with the stored V′: V′u′ = ΣVu to rounding)
-        const std::array<particle_view<D>, 2> pb{{{V[i], x.col(i), u.col(i)}, {V[j], vec<D>(x.col(i) + xij), u.col(j)}}};
+        m.u =
+            (V[i] * u.col(i) + V[j] * u.col(j)) / m.V;  // eq. 73 (with the stored V′: V′u′ = ΣVu to rounding)
+        const std::array<particle_view<D>, 2> pb{
+            {{V[i], x.col(i), u.col(i)}, {V[j], vec<D>(x.col(i) + xij), u.col(j)}}};
         const std::array<particle_view<D>, 1> pa{{{m.V, m.x, m.u}}};
         const std::array<particle_id, 2> ids{id_of(i), id_of(j)};
         merge_event<D> ev;
@@ -646,7 +661,8 @@ struct split_merge final {
       const double eps = std::numeric_limits<double>::epsilon();
       const double resV = V1.minus(V0) - ev_dV;
       vec<D> resU;
-      for (int a = 0; a < D; ++a) resU[a] = M1[static_cast<std::size_t>(a)].minus(M0[static_cast<std::size_t>(a)]) - ev_dVu[a];
+      for (int a = 0; a < D; ++a)
+        resU[a] = M1[static_cast<std::size_t>(a)].minus(M0[static_cast<std::size_t>(a)]) - ev_dVu[a];
       if (!(std::abs(resV) <= p_.ledger.volume_ulp * eps * V0.value()) ||
           !(resU.norm() <= p_.ledger.momentum_ulp * eps * std::max(scale_u, 1e-300)))
         fail("split_merge: the resize changed ΣV by ", resV, " and ΣVu by ", resU.norm(),
@@ -680,14 +696,17 @@ struct split_merge final {
 
     void check_inputs() const {
       const index_t nt = s_.size();
-      if (!in_.neighbours) fail("split_merge: inputs.neighbours is null (a neighbour list over the state is required)");
+      if (!in_.neighbours)
+        fail("split_merge: inputs.neighbours is null (a neighbour list over the state is required)");
       if (in_.neighbours->rows() != nt)
         fail("split_merge: the neighbour list has ", in_.neighbours->rows(), " rows, the state ", nt,
              " particles (build it over real + ghosts of this state)");
       if (!in_.L) fail("split_merge: inputs.L is null (per-particle diameters are required)");
       if (!(std::isfinite(in_.wall_reach) && in_.wall_reach > 0.0))
-        fail("split_merge: inputs.wall_reach = ", in_.wall_reach, ", accepted range (0, inf) (the wall model's alpha_w)");
-      if (in_.L->size() != nt) fail("split_merge: inputs.L has ", in_.L->size(), " entries for ", nt, " particles");
+        fail("split_merge: inputs.wall_reach = ", in_.wall_reach,
+             ", accepted range (0, inf) (the wall model's alpha_w)");
+      if (in_.L->size() != nt)
+        fail("split_merge: inputs.L has ", in_.L->size(), " entries for ", nt, " particles");
       if (in_.normals && in_.normals->cols() != nt)
         fail("split_merge: inputs.normals has ", in_.normals->cols(), " columns for ", nt, " particles");
       if (in_.flags && static_cast<index_t>(in_.flags->size()) != nt)
@@ -709,7 +728,8 @@ struct split_merge final {
     /// ties (|Δρ| ≤ 1e-12 ρ; e_i = 0 is a tie of all clear directions) broken by the larger clearance
     /// ρ = min_j r_i′j / L_ij over the neighbours within 2 L_ij + δ, then by the lower candidate index; the
     /// first in that order whose children pass the wall check.
-    split_choice choose_direction(index_t i, const std::vector<vec<D>>& dirs, bool with_children = false) const {
+    split_choice choose_direction(index_t i, const std::vector<vec<D>>& dirs,
+                                  bool with_children = false) const {
       split_choice out;
       const auto& x = s_.x();
       const double Li = L(i);
@@ -735,9 +755,11 @@ struct split_merge final {
         const index_t j = static_cast<index_t>(jj);
         if (j == i) continue;
         const vec<D> xij = in_.neighbours->displacement(x, i, j);
-        // (The list has exactly s_.size() rows, checked in check_inputs, so j < done_.size() always holds; ghost
-        // rows never split, and an earlier split's wall copies still stand for its parent: conservative.)
-        if (with_children && j < static_cast<index_t>(done_.size()) && done_[static_cast<std::size_t>(j)] != npos) {
+        // (The list has exactly s_.size() rows, checked in check_inputs, so j < done_.size() always holds;
+        // ghost rows never split, and an earlier split's wall copies still stand for its parent:
+        // conservative.)
+        if (with_children && j < static_cast<index_t>(done_.size()) &&
+            done_[static_cast<std::size_t>(j)] != npos) {
           // j splits in this call (decided before i): its children take its place (resolve_neighbour_splits).
           for (const vec<D>& xc : children_offsets(j, xij)) {
             const double Lij = 0.5 * (Li + Pattern_::template child_ratio<D>() * L(j));
@@ -762,15 +784,18 @@ struct split_merge final {
         }
         rho[c] = m;
       }
-      const auto e_of = [](double r) { return r >= 1.0 ? 0.0 : 1.0 - r; };  // eqs. 68–69: max_j e_ij = 1 − min ρ
+      const auto e_of = [](double r) {
+        return r >= 1.0 ? 0.0 : 1.0 - r;
+      };  // eqs. 68–69: max_j e_ij = 1 − min ρ
       std::vector<std::uint8_t> out_of_play(nc, 0);
       bool any_admissible = false, lost_contact = false;
       const double reach = in_.walls ? in_.wall_reach * Li : 0.0;
       const bool contact = in_.walls && std::isfinite(p_.wall_contact) &&
                            in_.walls->signed_distance(vec<D>(x.col(i))) <= reach;
-      // wall_contact_fallback: of the directions refused by the contact rule alone, the one whose nearer child is
-      // nearest the wall (the first in the e_i order on ties), if that child is within wall_reach · L′: the bound
-      // is one ulp above wall_reach · L′, so that one strict comparison admits the first direction at that distance.
+      // wall_contact_fallback: of the directions refused by the contact rule alone, the one whose nearer
+      // child is nearest the wall (the first in the e_i order on ties), if that child is within wall_reach
+      // · L′: the bound is one ulp above wall_reach · L′, so that one strict comparison admits the first
+      // direction at that distance.
       std::size_t fallback = nc;
       double fallback_distance = std::nextafter(in_.wall_reach * Lc, std::numeric_limits<double>::infinity());
       for (;;) {
@@ -814,11 +839,15 @@ struct split_merge final {
         out.contact_fallback = true;
         return out;
       }
-      out.why = !any_admissible ? refusal::error_function : lost_contact ? refusal::wall_contact : refusal::wall;
+      out.why = !any_admissible ? refusal::error_function
+                : lost_contact  ? refusal::wall_contact
+                                : refusal::wall;
       return out;
     }
     /// δ = (α_t/2) L′ (eq. 67, L′ of eq. 65): the distance of each child from its parent.
-    double half_offset(index_t i) const { return 0.5 * p_.alpha_t * (Pattern_::template child_ratio<D>() * L(i)); }
+    double half_offset(index_t i) const {
+      return 0.5 * p_.alpha_t * (Pattern_::template child_ratio<D>() * L(i));
+    }
     /// Offsets from particle i of the two children of j (decided split k = done_[j]), given x_ij.
     std::array<vec<D>, 2> children_offsets(index_t j, const vec<D>& xij) const {
       const split_choice& cj = choice_[static_cast<std::size_t>(done_[static_cast<std::size_t>(j)])];
@@ -854,7 +883,8 @@ struct split_merge final {
         for (const auto jj : in_.neighbours->neighbours(i)) {
           if (clash) break;
           const index_t j = static_cast<index_t>(jj);
-          if (j == i || j >= static_cast<index_t>(done_.size()) || done_[static_cast<std::size_t>(j)] == npos) continue;
+          if (j == i || j >= static_cast<index_t>(done_.size()) || done_[static_cast<std::size_t>(j)] == npos)
+            continue;
           const double Lij = 0.5 * (Li + Pattern_::template child_ratio<D>() * L(j));
           for (const vec<D>& xc : children_offsets(j, in_.neighbours->displacement(x, i, j)))
             if (std::min((xc - d).norm(), (xc + d).norm()) / Lij <= 1.0 - p_.alpha_e) clash = true;
@@ -890,7 +920,8 @@ struct split_merge final {
       const auto& V = s_.template get<field::volume>();
       std::vector<index_t> cand;
       for (index_t i = 0; i < n; ++i)
-        if (want_[static_cast<std::size_t>(i)] == want::merge && eligible_[static_cast<std::size_t>(i)]) cand.push_back(i);
+        if (want_[static_cast<std::size_t>(i)] == want::merge && eligible_[static_cast<std::size_t>(i)])
+          cand.push_back(i);
       const auto partner_ok = [&](index_t j) {
         return j < n && kind_of(j) == kind::fluid && eligible_[static_cast<std::size_t>(j)] &&
                want_[static_cast<std::size_t>(j)] != want::split &&
@@ -909,19 +940,26 @@ struct split_merge final {
           const double lim = p_.alpha_r * Lij;
           if (!(r2 < lim * lim)) continue;
           const bool i_lo = id_of(i) < id_of(j);
-          const int rank = p_.partners == merge_partners::alike_first && want_[static_cast<std::size_t>(j)] != want::merge ? 1 : 0;
-          out.push_back({r2, i_lo ? id_of(i) : id_of(j), i_lo ? id_of(j) : id_of(i), i_lo ? i : j, i_lo ? j : i, rank});
+          const int rank =
+              p_.partners == merge_partners::alike_first && want_[static_cast<std::size_t>(j)] != want::merge
+                  ? 1
+                  : 0;
+          out.push_back(
+              {r2, i_lo ? id_of(i) : id_of(j), i_lo ? id_of(j) : id_of(i), i_lo ? i : j, i_lo ? j : i, rank});
         }
       });
       std::vector<edge> edges;
-      std::vector<std::uint8_t> had_edge(static_cast<std::size_t>(n), 0), had_valid(static_cast<std::size_t>(n), 0);
+      std::vector<std::uint8_t> had_edge(static_cast<std::size_t>(n), 0),
+          had_valid(static_cast<std::size_t>(n), 0);
       for (std::size_t k = 0; k < cand.size(); ++k) {
         if (!per[k].empty()) had_edge[static_cast<std::size_t>(cand[k])] = 1;
         edges.insert(edges.end(), per[k].begin(), per[k].end());
       }
       std::sort(edges.begin(), edges.end());
       edges.erase(std::unique(edges.begin(), edges.end(),
-                              [](const edge& a, const edge& b) { return a.lo == b.lo && a.hi == b.hi && a.rank == b.rank; }),
+                              [](const edge& a, const edge& b) {
+                                return a.lo == b.lo && a.hi == b.hi && a.rank == b.rank;
+                              }),
                   edges.end());
       // The merge-then-split guard (sequential: it calls the target callable).
       const bool ctx = p_.target_diameter.wants_context();
@@ -930,7 +968,8 @@ struct split_merge final {
         const double Vm = V[ed.i] + V[ed.j];
         const double Lm = D == 2 ? std::sqrt(Vm) : std::cbrt(Vm);  // eq. 74
         target_point<D> tp;
-        tp.x = in_.neighbours->dom().wrap(merged_position(ed.i, in_.neighbours->displacement(x, ed.i, ed.j), V[ed.j], Vm));
+        tp.x = in_.neighbours->dom().wrap(
+            merged_position(ed.i, in_.neighbours->displacement(x, ed.i, ed.j), V[ed.j], Vm));
         if (ctx) {
           tp.wall_distance = wall_distance(tp.x);
           tp.surface_distance = std::min(surface_distance(ed.i), surface_distance(ed.j));
@@ -942,7 +981,8 @@ struct split_merge final {
         had_valid[static_cast<std::size_t>(ed.i)] = had_valid[static_cast<std::size_t>(ed.j)] = 1;
         valid.push_back(ed);
       }
-      // Greedy on the strict order ((rank,) r², lo id, hi id) = iterated mutual nearest neighbours (within each rank).
+      // Greedy on the strict order ((rank,) r², lo id, hi id) = iterated mutual nearest neighbours (within
+      // each rank).
       std::vector<std::uint8_t> taken(static_cast<std::size_t>(n), 0);
       for (const edge& ed : valid) {
         if (taken[static_cast<std::size_t>(ed.i)] || taken[static_cast<std::size_t>(ed.j)]) continue;
@@ -952,7 +992,9 @@ struct split_merge final {
       for (index_t i : cand) {
         const std::size_t is = static_cast<std::size_t>(i);
         if (taken[is]) continue;
-        const refusal r = !had_edge[is] ? refusal::no_partner : !had_valid[is] ? refusal::would_split : refusal::partner_taken;
+        const refusal r = !had_edge[is]    ? refusal::no_partner
+                          : !had_valid[is] ? refusal::would_split
+                                           : refusal::partner_taken;
         ++rep_.refused[static_cast<std::size_t>(r)];
       }
     }
@@ -1008,7 +1050,8 @@ struct split_merge final {
     std::vector<std::uint8_t> eligible_;
     std::vector<index_t> split_cand_;
     std::vector<split_choice> choice_;
-    std::vector<index_t> done_;  ///< per particle: its decided split (slot in choice_), npos otherwise (resolve_neighbour_splits)
+    std::vector<index_t> done_;  ///< per particle: its decided split (slot in choice_), npos otherwise
+                                 ///< (resolve_neighbour_splits)
     std::vector<pair_t> pairs_;
     split_merge_report<D> rep_{};
   };

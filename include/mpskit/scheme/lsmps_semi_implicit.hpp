@@ -14,7 +14,8 @@
 ///  4. Packing ratio c (eqs. 32–40, least-squares form); isolated fluid: c < α_c (§4.6); isolated
 ///     particles are excluded from every operator, the PPE and shifting and move ballistically.
 ///  5. Normals (eq. 31, outward) and free-surface flags (§4.6, both cone tests, the wall counted as a
-///     neighbour: a deviation, see surface::wall_blocks_cone) on real fluid; a copy inherits its parent's flag.
+///     neighbour: a deviation, see surface::wall_blocks_cone) on real fluid; a copy inherits its parent's
+///     flag.
 ///  6. LSMPS type A moments at x^k; with copy_row = constrained_poisson copies carry the Neumann
 ///     constraint (eqs. 85–86); with copy_row = neumann_points a second set of moments for the pressure, in
 ///     which each copy is the Neumann equation of eq. 83 at its wall point (op::neumann_points).
@@ -33,8 +34,8 @@
 ///     right-hand side compatible with the left null vector, and counted. With active_set_solves > 0 fluid
 ///     particles solved at p < 0 become p = 0 rows and the PPE is solved again (ours, opt-in: deviation 13).
 ///  9. Correction u = u′ − (Δt/ρ) ∇p (eq. 15), ∇p by LSMPS type A at x^k; x = x^k + Δt u (eq. 16). Then the
-///     one-sided-band velocity filter (a deviation, on by default: lsmps_params::boundary_filter) and, when asked,
-///     pair collisions (a deviation, off by default: lsmps_params::collision).
+///     one-sided-band velocity filter (a deviation, on by default: lsmps_params::boundary_filter) and, when
+///     asked, pair collisions (a deviation, off by default: lsmps_params::collision).
 /// 10. Shifting (eqs. 93–100) with δu = ∇u δx (eq. 91), if the scene names it.
 /// 11. Wall-crossing guard (a documented deviation), periodic wrap, NaN/inf check.
 /// 12. If Scene::resolution is split_merge: splitting/merging on this step's list, normals and flags, one
@@ -161,32 +162,32 @@ enum class copy_neumann_velocity {
 };
 
 /// The own-loop guard (ours, opt-in; docs/lsmps_scheme.md deviation 15). After the PPE solve, each checked
-/// particle i gets the D×D block B_i = ∂u_i^{n+1}/∂u′_i of the projection (stages 8–9 linearised at this step's
-/// solution: its own predicted velocity through every PPE row it enters, its copies' wall data and the
+/// particle i gets the D×D block B_i = ∂u_i^{n+1}/∂u′_i of the projection (stages 8–9 linearised at this
+/// step's solution: its own predicted velocity through every PPE row it enters, its copies' wall data and the
 /// correction's gradient at i). ρ(B_i) > 1 is a loop through the particle's own velocity that one step
 /// amplifies; on Tanaka's dam break every failure measured with benchmarks/linearised_step.cpp began as one
 /// (2.5–67× per step at one sparse particle beside a wall), while elsewhere ρ(B_i) ≤ 1.02. δp is solved on a
 /// patch (the unknowns within patch_radius·R_e,i of i, δp = 0 outside, dense LU), which matched the full
-/// Jacobian's block to 6 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7, 23.7 / 25.1).
-/// Where ρ(B_i) > max_gain: a non-surface particle becomes a Dirichlet p = 0 row for the step (as the active
-/// set's particles: no own pressure, no own loop), a surface particle's copies lose the two-point term of
-/// copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0), or, when the
-/// parent's fit sees no unknown outside the group of such parents and their copies (not tied, own_loop_check),
-/// its copies become p = 0 rows (a gradient-only group is singular when the fits are exactly determined:
-/// measured, two surface particles alone in a corner, docs/lsmps_scheme.md); the PPE is solved again and checked
-/// again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
+/// Jacobian's block to 6 % where it mattered (3.70 / 3.55, 6.49 / 6.49, 5.66 / 5.62, 40.1 / 39.7, 23.7
+/// / 25.1). Where ρ(B_i) > max_gain: a non-surface particle becomes a Dirichlet p = 0 row for the step (as
+/// the active set's particles: no own pressure, no own loop), a surface particle's copies lose the two-point
+/// term of copy_two_point (their row then makes the parent's corrected normal velocity vanish: B_i·n = 0),
+/// or, when the parent's fit sees no unknown outside the group of such parents and their copies (not tied,
+/// own_loop_check), its copies become p = 0 rows (a gradient-only group is singular when the fits are exactly
+/// determined: measured, two surface particles alone in a corner, docs/lsmps_scheme.md); the PPE is solved
+/// again and checked again, at most `rounds` times. Counted (lsmps_counters::own_loop_*).
 struct own_loop_guard_params {
-  bool enabled = false;            ///< off: Tanaka's scheme (and every earlier result) unchanged
-  double max_gain = 1.1;           ///< ρ(B_i) above which the fallback acts (the patch estimate reads up to
-                                   ///< 0.05 above the full step's block, which the velocity filter damps;
-                                   ///< below 1 it marks decaying loops too, for experiments). Accepted: [0, 1e6]
+  bool enabled = false;   ///< off: Tanaka's scheme (and every earlier result) unchanged
+  double max_gain = 1.1;  ///< ρ(B_i) above which the fallback acts (the patch estimate reads up to
+                          ///< 0.05 above the full step's block, which the velocity filter damps;
+                          ///< below 1 it marks decaying loops too, for experiments). Accepted: [0, 1e6]
   double candidate_packing = 0.7;  ///< non-surface particles with packing ratio c < this are checked (the
                                    ///< failing ones had c = 0.40–0.58; c ≈ 1 inside)
-  double wall_candidate_packing = 0.7;  ///< non-surface particles with wall copies and c < this are checked too
-                                        ///< (an own loop at c = 0.87 beside a wall was measured at 3.6 mm;
-                                        ///< ≤ candidate_packing: no extra candidates, the default)
-  double patch_radius = 1.5;       ///< patch radius in units of the particle's R_e
-  int rounds = 3;                  ///< checks per step, each followed by a solve when a fallback acted
+  double wall_candidate_packing = 0.7;  ///< non-surface particles with wall copies and c < this are checked
+                                        ///< too (an own loop at c = 0.87 beside a wall was measured at 3.6
+                                        ///< mm; ≤ candidate_packing: no extra candidates, the default)
+  double patch_radius = 1.5;  ///< patch radius in units of the particle's R_e
+  int rounds = 3;             ///< checks per step, each followed by a solve when a fallback acted
   void validate() const {
     validator v("own_loop_guard_params");
     v.in_range("max_gain", max_gain, 0.0, 1e6).in_range("candidate_packing", candidate_packing, 0.0, 1e3);
@@ -196,8 +197,8 @@ struct own_loop_guard_params {
   }
 };
 
-/// An axis-aligned box [lo, hi] outside which particles are removed (lsmps_params::remove_outside); ±inf bounds:
-/// that side is open. The default removes nothing.
+/// An axis-aligned box [lo, hi] outside which particles are removed (lsmps_params::remove_outside); ±inf
+/// bounds: that side is open. The default removes nothing.
 template <int D>
 struct removal_box {
   vec<D> lo = vec<D>::Constant(-std::numeric_limits<double>::infinity());  ///< lower corner (m)
@@ -206,15 +207,19 @@ struct removal_box {
   /// True when some bound is finite (the stepper then tests every particle).
   bool any() const { return (lo.array().isFinite() || hi.array().isFinite()).any(); }
   /// True when x lies in [lo, hi] on every axis (on the boundary counts as inside).
-  bool contains(const vec<D>& x) const { return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all(); }
+  bool contains(const vec<D>& x) const {
+    return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all();
+  }
   /// Throws mpskit::error on NaN bounds, lo ≥ hi, or a finite bound on a periodic axis of `domain`.
   void validate(const search::domain<D>& domain) const {
     validator v("lsmps_params::remove_outside");
     for (int a = 0; a < D; ++a) {
       v.require(!std::isnan(lo[a]) && !std::isnan(hi[a]) && lo[a] < hi[a], "lo, hi",
-                mpskit::detail::concat("axis ", a, ": lo = ", lo[a], ", hi = ", hi[a], ": need lo < hi (±inf: open)"));
-      v.require(!(domain.periodic[a] && (std::isfinite(lo[a]) || std::isfinite(hi[a]))), "lo, hi",
-                mpskit::detail::concat("axis ", a, " is periodic (domain.periodic): its bounds must be ±inf"));
+                mpskit::detail::concat("axis ", a, ": lo = ", lo[a], ", hi = ", hi[a],
+                                       ": need lo < hi (±inf: open)"));
+      v.require(
+          !(domain.periodic[a] && (std::isfinite(lo[a]) || std::isfinite(hi[a]))), "lo, hi",
+          mpskit::detail::concat("axis ", a, " is periodic (domain.periodic): its bounds must be ±inf"));
     }
     v.throw_if_any();
   }
@@ -234,37 +239,40 @@ struct lsmps_params {
   wall::guard_params guard{};           ///< ε of the wall-crossing guard
   /// α_g, α_T, α_p, α_S (eqs. 93–100); the penalty of eq. 96 acts per pair (a deviation, docs/solver.md)
   regularize::tanaka_shift_params shift = pair_penalty_shift();
-  /// Eq. 99 also along a second wall a particle is copied onto (a 3D edge or corner, a 2D corner; ours, opt-in,
-  /// docs/lsmps_scheme.md deviation 12): the 3D tanks at rest stay quiet (the 60° prism meets issue #4's
-  /// criteria), but as the default the 3D duct with pressure faces and a 3D tank refined along an edge fail.
+  /// Eq. 99 also along a second wall a particle is copied onto (a 3D edge or corner, a 2D corner; ours,
+  /// opt-in, docs/lsmps_scheme.md deviation 12): the 3D tanks at rest stay quiet (the 60° prism meets issue
+  /// #4's criteria), but as the default the 3D duct with pressure faces and a 3D tank refined along an edge
+  /// fail.
   bool shift_second_wall = false;
   /// Eq. 99 one-sided for the faces whose copies were merged away (ours, default on; docs/lsmps_scheme.md
-  /// deviation 14): a particle with a copy keeps no component of δx into any face within α_w L_i seen from the
-  /// front that has no copy of its own (two faces of a kink within wall::imaginary_params::merge_angle_deg
-  /// keep one copy, so nothing else holds the particle off the other face). Off, the shifting walked a particle
-  /// into an 18.4° concave corner of the paper's channel and the PPE failed (docs/resolution.md).
+  /// deviation 14): a particle with a copy keeps no component of δx into any face within α_w L_i seen from
+  /// the front that has no copy of its own (two faces of a kink within
+  /// wall::imaginary_params::merge_angle_deg keep one copy, so nothing else holds the particle off the other
+  /// face). Off, the shifting walked a particle into an 18.4° concave corner of the paper's channel and the
+  /// PPE failed (docs/resolution.md).
   bool shift_merged_faces = true;
   /// Eq. 91's δu = ∇u δx clipped per component to the range of u over the particle and its neighbours (copies
-  /// at the wall velocity included): regularize::limit_to_neighbour_range, Barth and Jespersen's limiter for one
-  /// point (ours, opt-in; docs/lsmps_scheme.md "The shifted velocity's limiter"). Counted
+  /// at the wall velocity included): regularize::limit_to_neighbour_range, Barth and Jespersen's limiter for
+  /// one point (ours, opt-in; docs/lsmps_scheme.md "The shifted velocity's limiter"). Counted
   /// (lsmps_counters::shift_velocity_clipped). Off: Tanaka's eq. 91, every earlier result unchanged.
   bool shift_velocity_limit = false;
   /// Isolated particles (c < α_c) enter the others' overlap penalty of eq. 96 (per pair, pushing i off them,
-  /// after eqs. 99–100), not eq. 94 (ours, opt-in; docs/lsmps_scheme.md deviation 18; needs shift.penalty = pair,
-  /// the default). Issue #7 item 5 leaves them out of the shifting; then surface particles of the run-up film were
-  /// shifted onto isolated ones riding up beside them (Tanaka's dam break refined 4/2 mm, 4 mm particles: r_ij/L_ij
-  /// 0.039 at T = 3.98, 0.006 at T = 8.25). Measured with shift.projection = wall_only (the dam-break wall
-  /// variants); with eq. 99 as printed a surface particle keeps no push along its normal. Off: every earlier
-  /// result unchanged.
+  /// after eqs. 99–100), not eq. 94 (ours, opt-in; docs/lsmps_scheme.md deviation 18; needs
+  /// shift.penalty = pair, the default). Issue #7 item 5 leaves them out of the shifting; then surface
+  /// particles of the run-up film were shifted onto isolated ones riding up beside them (Tanaka's dam break
+  /// refined 4/2 mm, 4 mm particles: r_ij/L_ij 0.039 at T = 3.98, 0.006 at T = 8.25). Measured with
+  /// shift.projection = wall_only (the dam-break wall variants); with eq. 99 as printed a surface particle
+  /// keeps no push along its normal. Off: every earlier result unchanged.
   bool shift_isolated_penalty = false;
   /// ε of the velocity filter in the one-sided band (particles with a wall copy, a pressure-boundary or a
   /// free-surface particle among their neighbours, or a neighbour of another size beyond size_ratio; a
   /// deviation, regularize/boundary_filter.hpp): with the
   /// paper's scheme alone the linearised step grows ≈ 1.5 % per step there. 0 switches it off.
   regularize::boundary_filter_params boundary_filter{};
-  bool thin_walls = true;               ///< pairs whose segment crosses a wall are not neighbours (walls
-                                        ///< thinner than the support; +~40 % list-build time, off if none)
-  copy_row_kind copy_row = copy_row_kind::parent_gradient;  ///< the row at a copy (docs/solver.md: the most stable measured)
+  bool thin_walls = true;  ///< pairs whose segment crosses a wall are not neighbours (walls
+                           ///< thinner than the support; +~40 % list-build time, off if none)
+  /// the row at a copy (docs/solver.md: the most stable measured)
+  copy_row_kind copy_row = copy_row_kind::parent_gradient;
   copy_neumann_velocity copy_neumann = copy_neumann_velocity::parent;  ///< u′_w in eq. 83
   /// β of the two-point term added to the parent-gradient copy row (a deviation, docs/lsmps_scheme.md):
   /// (1/ρ)[n·⟨∇p⟩_parent + β (p_parent − p_copy)/d] = (1 + β)(u′ − u_wall)·n/Δt, d = (x_parent − x_copy)·n.
@@ -273,60 +281,67 @@ struct lsmps_params {
   /// from T ≈ 1.35). 0 gives the parent-gradient row alone. Accepted: [0, inf).
   double copy_two_point = 0.0;
   copy_velocity_in_source copy_velocity = copy_velocity_in_source::extrapolated;  ///< see the enum
-  wrong_sign_row wrong_sign_rows = wrong_sign_row::dirichlet;  ///< fluid rows with a diagonal ≥ 0 (see the enum)
-  pressure_operator pressure = pressure_operator::second_derivatives;  ///< the det F rows' operator (see the enum)
+  /// fluid rows with a diagonal ≥ 0 (see the enum)
+  wrong_sign_row wrong_sign_rows = wrong_sign_row::dirichlet;
+  /// the det F rows' operator (see the enum)
+  pressure_operator pressure = pressure_operator::second_derivatives;
   negative_pressure negative = negative_pressure::keep;  ///< LSMPS needs no clamping (Tanaka §4.7)
-  /// p ≥ 0 by an active set (ours, opt-in; docs/lsmps_scheme.md deviation 13). 0: off (Tanaka's scheme). k > 0:
-  /// after the PPE solve, the fluid particles with p < 0 become Dirichlet p = 0 rows for the rest of the step
-  /// (as free-surface particles are: the fluid may separate there but not pull) and the PPE is solved again,
-  /// at most k more times; a particle once in the set stays in it for the step. Negative pressures left after
-  /// the k-th repeat are kept, not clamped, and counted (counters().active_set_unfinished). Accepted: [0, 100].
+  /// p ≥ 0 by an active set (ours, opt-in; docs/lsmps_scheme.md deviation 13). 0: off (Tanaka's scheme).
+  /// k > 0: after the PPE solve, the fluid particles with p < 0 become Dirichlet p = 0 rows for the rest of
+  /// the step (as free-surface particles are: the fluid may separate there but not pull) and the PPE is
+  /// solved again, at most k more times; a particle once in the set stays in it for the step. Negative
+  /// pressures left after the k-th repeat are kept, not clamped, and counted
+  /// (counters().active_set_unfinished). Accepted: [0, 100].
   int active_set_solves = 0;
   /// The active set's repeated solves reuse the rows of the first build (they do not depend on the set: a
   /// particle joining it only drops its row and its column, and its p = 0 moves nothing to the right-hand
   /// sides). false rebuilds every row for every repeat: the reference path, bitwise the same (tested).
   bool active_set_reuse_rows = true;
-  /// The active set takes the wall copies too (ours, opt-in; needs active_set_solves > 0): a copy unknown solved
-  /// below 0 becomes a p = 0 row for the rest of the step — the wall's contact condition as the same
-  /// complementarity, p_wall ≥ 0 (a wall pushes, it does not pull: the fluid may leave it). Without it, copies
-  /// of particles leaving a wall were solved at −1.4·10⁷ Pa in the dam break (3.8 mm), docs/lsmps_scheme.md.
+  /// The active set takes the wall copies too (ours, opt-in; needs active_set_solves > 0): a copy unknown
+  /// solved below 0 becomes a p = 0 row for the rest of the step — the wall's contact condition as the same
+  /// complementarity, p_wall ≥ 0 (a wall pushes, it does not pull: the fluid may leave it). Without it,
+  /// copies of particles leaving a wall were solved at −1.4·10⁷ Pa in the dam break (3.8 mm),
+  /// docs/lsmps_scheme.md.
   bool active_set_copies = false;
-  /// The active set also releases (ours, opt-in; needs active_set_solves > 0; docs/lsmps_scheme.md deviation 13):
-  /// after each repeated solve, a fluid particle held at p = 0 whose own row, evaluated at that solution, is not
-  /// met in the compressing direction (w = b − Σ_j a_ij p_j < 0 with a_ii < 0: freed, it would take p > 0) leaves
-  /// the set, and the PPE is built and solved again. The set then satisfies the complementarity p ≥ 0, w ≥ 0,
-  /// p w = 0 at the fluid rows (the primal–dual active-set iteration) instead of only p ≥ 0. Without it 63 % of
-  /// the set's particles violate w ≥ 0 in the main example's fine run, and the set alternates from step to step
-  /// (a period-two cycle of the pressures). Wall copies are only joined (active_set_copies), never released.
+  /// The active set also releases (ours, opt-in; needs active_set_solves > 0; docs/lsmps_scheme.md deviation
+  /// 13): after each repeated solve, a fluid particle held at p = 0 whose own row, evaluated at that
+  /// solution, is not met in the compressing direction (w = b − Σ_j a_ij p_j < 0 with a_ii < 0: freed, it
+  /// would take p > 0) leaves the set, and the PPE is built and solved again. The set then satisfies the
+  /// complementarity p ≥ 0, w ≥ 0, p w = 0 at the fluid rows (the primal–dual active-set iteration) instead
+  /// of only p ≥ 0. Without it 63 % of the set's particles violate w ≥ 0 in the main example's fine run, and
+  /// the set alternates from step to step (a period-two cycle of the pressures). Wall copies are only joined
+  /// (active_set_copies), never released.
   bool active_set_release = false;
   /// The active set starts each step from the previous step's (ours, opt-in; needs active_set_release;
   /// docs/lsmps_scheme.md deviation 13): the real fluid particles held at p = 0 by the set when the previous
-  /// pressure solve ended (the previous step's, or with the own-loop guard the previous round's; by particle id,
-  /// so splits, merges and removals need no mapping) are held again from the first solve, if they are still
-  /// neither surface nor isolated, and the releases are tested after that first solve as well. Without it each step starts from an empty set; with releases, the first
-  /// (unconstrained) solve then pulls at nearly every fluid particle in the main example's run, the set takes
-  /// almost the whole fluid and the releases free it again over five repeats (docs/resolution.md). Where the
-  /// iteration converges both starts satisfy the same complementarity conditions. The set is part of the
-  /// state: checkpoints save it (section `lsmps.active_set_held`).
+  /// pressure solve ended (the previous step's, or with the own-loop guard the previous round's; by particle
+  /// id, so splits, merges and removals need no mapping) are held again from the first solve, if they are
+  /// still neither surface nor isolated, and the releases are tested after that first solve as well. Without
+  /// it each step starts from an empty set; with releases, the first (unconstrained) solve then pulls at
+  /// nearly every fluid particle in the main example's run, the set takes almost the whole fluid and the
+  /// releases free it again over five repeats (docs/resolution.md). Where the iteration converges both starts
+  /// satisfy the same complementarity conditions. The set is part of the state: checkpoints save it (section
+  /// `lsmps.active_set_held`).
   bool active_set_warm_start = false;
   own_loop_guard_params own_loop{};   ///< the own-loop guard (ours, opt-in; see the struct)
-  /// Pair collisions after the correction (ours, opt-in; docs/lsmps_scheme.md deviation 17): seed 001 eq. 13 (Lee
-  /// et al. 2011) between fluid particles closer than α1 L_ij that approach, and against their wall copies (at the
-  /// wall velocity, immovable), momentum-conserving for unequal volumes (regularize::sized_collisions). alpha1 = 0:
-  /// off, Tanaka's scheme. Counted (lsmps_counters::collisions).
+  /// Pair collisions after the correction (ours, opt-in; docs/lsmps_scheme.md deviation 17): seed 001 eq. 13
+  /// (Lee et al. 2011) between fluid particles closer than α1 L_ij that approach, and against their wall
+  /// copies (at the wall velocity, immovable), momentum-conserving for unequal volumes
+  /// (regularize::sized_collisions). alpha1 = 0: off, Tanaka's scheme. Counted (lsmps_counters::collisions).
   regularize::sized_collision_params collision{};
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
   search::domain<D> domain{};           ///< periodic axes
   /// Real particles whose centre lies outside [lo, hi] on some axis at the start of a step are removed then,
   /// counted (lsmps_counters::left_domain) and, with Scene::resolution = split_merge, entered in the volume
-  /// ledger as the flux "left_domain" (ours; the paper says nothing of fluid leaving an open vessel). The default
-  /// ±inf removes nothing and costs one test per particle-step only when a bound is finite. Refused: NaN, lo ≥ hi,
-  /// a finite bound on a periodic axis (the wrap keeps particles in the period box there).
+  /// ledger as the flux "left_domain" (ours; the paper says nothing of fluid leaving an open vessel). The
+  /// default ±inf removes nothing and costs one test per particle-step only when a bound is finite. Refused:
+  /// NaN, lo ≥ hi, a finite bound on a periodic axis (the wrap keeps particles in the period box there).
   removal_box<D> remove_outside{};
   double skin = 0.2;                    ///< list skin (fraction of the build radius)
   int reorder_every = 25;               ///< steps between cell reorders (0: never)
-  /// Split/merge numbers and L* (used, and validated by the stepper, only when Scene::resolution is split_merge).
+  /// Split/merge numbers and L* (used, and validated by the stepper, only when Scene::resolution is
+  /// split_merge).
   resolution::split_merge_params<D> resolution{};
 
   /// Throws mpskit::error listing every bad value.
@@ -337,17 +352,22 @@ struct lsmps_params {
     v.in_range("skin", skin, 0.0, 1.0).in_range("reorder_every", reorder_every, 0, 1e9);
     v.non_negative("copy_two_point", copy_two_point);
     v.in_range("active_set_solves", active_set_solves, 0, 100);
-    v.require(!(active_set_solves > 0 && negative == negative_pressure::clamp_to_zero), "active_set_solves",
-              "needs negative = keep (clamping each solve to zero would hide the negative pressures the active set "
-              "looks for)");
-    v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::constrained_poisson),
-              "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not constrained_poisson "
-              "(the det F row at a copy has no nested form)");
+    v.require(
+        !(active_set_solves > 0 && negative == negative_pressure::clamp_to_zero), "active_set_solves",
+        "needs negative = keep (clamping each solve to zero would hide the negative pressures the active set "
+        "looks for)");
+    v.require(
+        !(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::constrained_poisson),
+        "pressure",
+        "nested_gradient takes the wall rows parent_gradient or neumann, not constrained_poisson "
+        "(the det F row at a copy has no nested form)");
     v.require(!(pressure == pressure_operator::nested_gradient && copy_row == copy_row_kind::neumann_points),
-              "pressure", "nested_gradient takes the wall rows parent_gradient or neumann, not neumann_points "
+              "pressure",
+              "nested_gradient takes the wall rows parent_gradient or neumann, not neumann_points "
               "(the nested rows read the copies' parents' gradients, which have no Neumann points)");
     v.require(!(shift_isolated_penalty && shift.penalty != regularize::penalty_direction::pair),
-              "shift_isolated_penalty", "needs shift.penalty = penalty_direction::pair (the printed direction "
+              "shift_isolated_penalty",
+              "needs shift.penalty = penalty_direction::pair (the printed direction "
               "-grad c does not push a particle away from an isolated one)");
     v.require(!(active_set_release && active_set_solves == 0), "active_set_release",
               "needs active_set_solves > 0 (the releases happen between the active set's repeated solves)");
@@ -357,8 +377,9 @@ struct lsmps_params {
               "needs active_set_solves > 0 (the copies join the active set's repeated solves)");
     v.require(!(active_set_copies && copy_row == copy_row_kind::neumann_points), "active_set_copies",
               "needs copy rows (copy_row = neumann_points has no copy unknowns)");
-    v.require(!(copy_two_point > 0.0 && copy_row == copy_row_kind::neumann_points), "copy_two_point",
-              "a two-point copy row needs copy_row = parent_gradient (with neumann_points the copies have no row)");
+    v.require(
+        !(copy_two_point > 0.0 && copy_row == copy_row_kind::neumann_points), "copy_two_point",
+        "a two-point copy row needs copy_row = parent_gradient (with neumann_points the copies have no row)");
     v.throw_if_any();
     op.validate();
     volume.validate();
@@ -379,10 +400,10 @@ struct lsmps_params {
 
 /// The LSMPS scheme's impact configuration (docs/lsmps_scheme.md "The impact configuration"): the opt-in
 /// deviations with which violent free-surface flows get through their impacts, written into `p` (by default
-/// Tanaka's Table 2): the ten fields below are overwritten, every other field of `p` is kept. The paper's defaults
-/// fail in Tanaka's dam break at T ≈ 1.6 (4 mm); with these the 2D dam break runs through the far-wall impact at
-/// every spacing measured (6–1.5 mm) and the obstacle case with no guard activation (docs/validation.md). Each
-/// setting is a documented deviation (docs/lsmps_scheme.md):
+/// Tanaka's Table 2): the ten fields below are overwritten, every other field of `p` is kept. The paper's
+/// defaults fail in Tanaka's dam break at T ≈ 1.6 (4 mm); with these the 2D dam break runs through the
+/// far-wall impact at every spacing measured (6–1.5 mm) and the obstacle case with no guard activation
+/// (docs/validation.md). Each setting is a documented deviation (docs/lsmps_scheme.md):
 /// - copy_two_point = 1: the two-point term in the wall copies' rows (gives a copy's unknown a diagonal);
 /// - shift.projection = wall_only: eq. 99's projection only at walls, not at the free surface;
 /// - active_set_solves = 10 with active_set_copies: p ≥ 0 for the fluid and the wall copies (deviation 13);
@@ -390,11 +411,11 @@ struct lsmps_params {
 /// - op.max_condition = 1e4: a fit whose moment matrix has cond1 above 1e4 falls back to a lower order;
 /// - shift_velocity_limit: eq. 91's shifted velocity clipped to the neighbours' range;
 /// - collision.alpha1 = 0.5 with collision.isolated, and shift_isolated_penalty (deviations 17 and 18).
-/// Not the default: the two-point rows worsen the Poiseuille profile (3.0 → 3.6 %) and wall-only shifting lets tanks
-/// at rest spread; the other settings were not measured on the channels, tanks and vortex, which were validated
-/// without them (each deviation's "why not the default" in docs/lsmps_scheme.md). In a 3D slab of the dam break
-/// (periodic at 10 mm, between end walls at 10–5 mm) it reaches the far wall where Table 2 blows up at T ≈ 0.8–1.2
-/// (docs/lsmps_scheme.md "The impact configuration"; label dam_break_slab).
+/// Not the default: the two-point rows worsen the Poiseuille profile (3.0 → 3.6 %) and wall-only shifting
+/// lets tanks at rest spread; the other settings were not measured on the channels, tanks and vortex, which
+/// were validated without them (each deviation's "why not the default" in docs/lsmps_scheme.md). In a 3D slab
+/// of the dam break (periodic at 10 mm, between end walls at 10–5 mm) it reaches the far wall where Table 2
+/// blows up at T ≈ 0.8–1.2 (docs/lsmps_scheme.md "The impact configuration"; label dam_break_slab).
 template <int D>
 lsmps_params<D> lsmps_impact_params(lsmps_params<D> p = {}) {
   p.copy_two_point = 1.0;
@@ -412,69 +433,81 @@ lsmps_params<D> lsmps_impact_params(lsmps_params<D> p = {}) {
 
 /// Counters of a run.
 struct lsmps_counters {
-  long steps = 0;                  ///< steps taken
-  long ppe_iterations = 0;         ///< solver iterations, summed
-  long ppe_iterations_max = 0;     ///< largest per step
-  long ppe_lagged_retries = 0;     ///< lagged-ILUT solves (solver_params::ilut_reuse) repeated with fresh factors
-  long ppe_fallbacks = 0;          ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
-  long ppe_breakdown_restarts = 0; ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
-  long ppe_cold_restarts = 0;      ///< warm-started solves repeated from 0 after not converging (solver_params::cold_restart)
+  long steps = 0;               ///< steps taken
+  long ppe_iterations = 0;      ///< solver iterations, summed
+  long ppe_iterations_max = 0;  ///< largest per step
+  /// lagged-ILUT solves (solver_params::ilut_reuse) repeated with fresh factors
+  long ppe_lagged_retries = 0;
+  /// solves made by the fallback solver after the primary failed (ppe::with_fallback)
+  long ppe_fallbacks = 0;
+  /// solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
+  long ppe_breakdown_restarts = 0;
+  /// warm-started solves repeated from 0 after not converging (solver_params::cold_restart)
+  long ppe_cold_restarts = 0;
   long pinned_components = 0;      ///< PPE parts with no Dirichlet row, pinned (summed over steps)
   long isolated = 0;               ///< isolated particle-steps
   long copies = 0;                 ///< imaginary copies made (summed over steps)
   long small_diameter_events = 0;  ///< copies with 1 − r σ < small_ratio (L′ = 2L), summed
   long guarded = 0;                ///< wall-crossing guard activations (a deviation: should stay 0)
   long shift_limited = 0;          ///< shifts limited to α_S L (eq. 100)
-  long shift_velocity_clipped = 0; ///< particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
-  long collisions = 0;             ///< colliding directed pairs of the collision stage (lsmps_params::collision)
-  long collision_coincident = 0;   ///< directed pairs at r = 0 the collision stage skipped (no direction; should be 0)
-  long shift_coincident = 0;       ///< directed pairs at r = 0 the shifting left out of eq. 94 (should be 0)
-  long degenerate = 0;             ///< operator fallbacks on participating particles (particle-steps)
-  long negative_clamped = 0;       ///< pressures clamped to zero (when asked)
-  long wrong_sign_rows = 0;        ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
-  long active_set_rows = 0;        ///< fluid particles (and copies: active_set_copies) made p = 0 rows by the
-                                   ///< active set (particle-steps)
-  long active_set_solves = 0;      ///< PPE solves repeated by the active set (summed over steps)
-  long active_set_unfinished = 0;  ///< steps whose last allowed solve still left a fluid pressure < 0 (kept) or,
-                                   ///< with active_set_release, a member its row would release (kept at p = 0)
-  long active_set_released = 0;    ///< fluid particles released from the active set (lsmps_params::active_set_release;
-                                   ///< particle-steps, a particle counted at each release)
-  long own_loop_checked = 0;       ///< particle-steps whose own-loop block was computed (own_loop_guard_params)
-  long own_loop_dirichlet = 0;     ///< particle-steps made p = 0 rows by the own-loop guard (a surface particle:
-                                   ///< its copies made p = 0 rows)
-  long own_loop_one_point = 0;     ///< particle-steps whose copies lost the two-point term (own-loop guard)
-  long own_loop_solves = 0;        ///< PPE solves repeated by the own-loop guard
-  long list_builds = 0;            ///< neighbour-list builds
-  long reorders = 0;               ///< cell reorders
-  long filtered = 0;               ///< particle-steps filtered in the one-sided band (boundary_filter)
-  long splits = 0;                 ///< particle splits (Scene::resolution)
-  long merges = 0;                 ///< particle merges (Scene::resolution)
-  long inflow = 0;                 ///< particles created by pressure-boundary inflow (Tanaka §4.5.2)
-  long outflow = 0;                ///< particles removed by pressure-boundary outflow (r_ip < α_o L_i)
-  long outflow_behind = 0;         ///< particles removed behind a pressure face (a deviation, docs/channel.md)
-  long filter_amplifying = 0;      ///< particle-steps of the band left unfiltered: Σ|w| of their fit > boundary_filter_params::max_amplification
-  long filter_tapered = 0;         ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| > boundary_filter_params::taper_amplification
-  long left_domain = 0;            ///< particles removed outside lsmps_params::remove_outside (counted at removal)
-  long ppe_solves = 0;             ///< pressure solves made (one per step, plus the active set's and the own-loop
-                                   ///< guard's repeats, but none for a system with no unknowns: so at most steps +
-                                   ///< active_set_solves + own_loop_solves; not the floating parts' left-null-vector
-                                   ///< solves). Since 2026-12-07: resumed from an older checkpoint, counted from the load
-  long ppe_factorisations = 0;     ///< ILUT or ILU(0) factorisations of the pressure solver, a lagged retry's
-                                   ///< included (0 for solvers without incomplete factors); since 2026-12-07, as above
-  double inflow_volume = 0.0;      ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
-  double outflow_volume = 0.0;     ///< Σ V removed by outflow (both rules, m^D)
-  double left_domain_volume = 0.0; ///< Σ V removed outside lsmps_params::remove_outside (m^D)
+  /// particle-steps whose eq. 91 velocity was clipped (shift_velocity_limit)
+  long shift_velocity_clipped = 0;
+  long collisions = 0;  ///< colliding directed pairs of the collision stage (lsmps_params::collision)
+  /// directed pairs at r = 0 the collision stage skipped (no direction; should be 0)
+  long collision_coincident = 0;
+  long shift_coincident = 0;   ///< directed pairs at r = 0 the shifting left out of eq. 94 (should be 0)
+  long degenerate = 0;         ///< operator fallbacks on participating particles (particle-steps)
+  long negative_clamped = 0;   ///< pressures clamped to zero (when asked)
+  long wrong_sign_rows = 0;    ///< fluid PPE rows with a diagonal ≥ 0 made p = 0 rows (particle-steps)
+  long active_set_rows = 0;    ///< fluid particles (and copies: active_set_copies) made p = 0 rows by the
+                               ///< active set (particle-steps)
+  long active_set_solves = 0;  ///< PPE solves repeated by the active set (summed over steps)
+  /// steps whose last allowed solve still left a fluid pressure < 0 (kept) or, with active_set_release, a
+  /// member its row would release (kept at p = 0)
+  long active_set_unfinished = 0;
+  /// fluid particles released from the active set (lsmps_params::active_set_release; particle-steps, a
+  /// particle counted at each release)
+  long active_set_released = 0;
+  long own_loop_checked = 0;    ///< particle-steps whose own-loop block was computed (own_loop_guard_params)
+  long own_loop_dirichlet = 0;  ///< particle-steps made p = 0 rows by the own-loop guard (a surface particle:
+                                ///< its copies made p = 0 rows)
+  long own_loop_one_point = 0;  ///< particle-steps whose copies lost the two-point term (own-loop guard)
+  long own_loop_solves = 0;     ///< PPE solves repeated by the own-loop guard
+  long list_builds = 0;         ///< neighbour-list builds
+  long reorders = 0;            ///< cell reorders
+  long filtered = 0;            ///< particle-steps filtered in the one-sided band (boundary_filter)
+  long splits = 0;              ///< particle splits (Scene::resolution)
+  long merges = 0;              ///< particle merges (Scene::resolution)
+  long inflow = 0;              ///< particles created by pressure-boundary inflow (Tanaka §4.5.2)
+  long outflow = 0;             ///< particles removed by pressure-boundary outflow (r_ip < α_o L_i)
+  long outflow_behind = 0;      ///< particles removed behind a pressure face (a deviation, docs/channel.md)
+  long filter_amplifying = 0;   ///< particle-steps of the band left unfiltered: Σ|w| of their fit >
+                                ///< boundary_filter_params::max_amplification
+  long filter_tapered = 0;      ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| >
+                                ///< boundary_filter_params::taper_amplification
+  long left_domain = 0;  ///< particles removed outside lsmps_params::remove_outside (counted at removal)
+  /// pressure solves made (one per step, plus the active set's and the own-loop guard's repeats, but none for
+  /// a system with no unknowns: so at most steps + active_set_solves + own_loop_solves; not the floating
+  /// parts' left-null-vector solves). Since 2026-12-07: resumed from an older checkpoint, counted from the
+  /// load
+  long ppe_solves = 0;
+  /// ILUT or ILU(0) factorisations of the pressure solver, a lagged retry's included (0 for solvers without
+  /// incomplete factors); since 2026-12-07, as above
+  long ppe_factorisations = 0;
+  double inflow_volume = 0.0;   ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
+  double outflow_volume = 0.0;  ///< Σ V removed by outflow (both rules, m^D)
+  double left_domain_volume = 0.0;  ///< Σ V removed outside lsmps_params::remove_outside (m^D)
 
-  /// The volume the boundaries added: inflow − outflow − what left the domain (m^D); a run's volume balance is
-  /// ΣV(t) − ΣV(0) − net_boundary_volume().
+  /// The volume the boundaries added: inflow − outflow − what left the domain (m^D); a run's volume balance
+  /// is ΣV(t) − ΣV(0) − net_boundary_volume().
   [[nodiscard]] double net_boundary_volume() const noexcept {
     return inflow_volume - outflow_volume - left_domain_volume;
   }
 };
 
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
-/// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check and
-/// the tests walk.
+/// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check
+/// and the tests walk.
 inline constexpr std::array<long lsmps_counters::*, 41> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
@@ -530,26 +563,36 @@ class lsmps_semi_implicit {
   static_assert(ppe::SecondDerivativeOperator<op_type>,
                 "mpskit: the det F source (Tanaka 2018 eq. 63) needs every second derivative separately: "
                 "use LSMPS type A of order >= 2 (classic MPS and order 1 cannot give them)");
-  static_assert(std::is_same_v<source_type, ppe::det_f>, "mpskit: the LSMPS scheme implements the det F source");
+  static_assert(std::is_same_v<source_type, ppe::det_f>,
+                "mpskit: the LSMPS scheme implements the det F source");
   static_assert(!solver_type::requires_symmetric,
                 "mpskit: the LSMPS PPE is not symmetric: use ppe::bicgstab, ppe::gmres or ppe::idrs");
   static_assert(op_type::dim == D, "mpskit: Scene::op has another dimension than the scene");
-  static_assert(!has_walls || std::is_same_v<walls_type, wall::imaginary>,
-                "mpskit: the LSMPS scheme takes polygon walls with imaginary particles (wall::imaginary) or none");
-  static_assert(!has_shift || std::is_same_v<shifting_type, regularize::tanaka_shift>,
-                "mpskit: the LSMPS scheme shifts with regularize::tanaka_shift (Tanaka eqs. 93–100) or not at all");
+  static_assert(
+      !has_walls || std::is_same_v<walls_type, wall::imaginary>,
+      "mpskit: the LSMPS scheme takes polygon walls with imaginary particles (wall::imaginary) or none");
+  static_assert(
+      !has_shift || std::is_same_v<shifting_type, regularize::tanaka_shift>,
+      "mpskit: the LSMPS scheme shifts with regularize::tanaka_shift (Tanaka eqs. 93–100) or not at all");
 
   /// Takes the numbers, the initial particles (fluid; volumes set, V = L^D) and the walls (required when
   /// the scene names wall::imaginary; must outlive the stepper).
   /// Scenes with `boundary = boundary::pressure` also take the pressure boundary (must outlive the stepper).
   lsmps_semi_implicit(const params_type& p, state_type initial, const geometry_type* walls = nullptr,
                       const pressure_boundary_type* pressure_boundary = nullptr)
-      : p_(checked(p)), op_(p.op), op_p_(p.op), source_(p.volume), dt_ctrl_(p.time), s_(std::move(initial)), walls_(walls),
+      : p_(checked(p)),
+        op_(p.op),
+        op_p_(p.op),
+        source_(p.volume),
+        dt_ctrl_(p.time),
+        s_(std::move(initial)),
+        walls_(walls),
         pb_(pressure_boundary) {
     if constexpr (has_pressure_boundary) {
       if (p_.pressure == pressure_operator::nested_gradient)
         fail("lsmps_semi_implicit: pressure = nested_gradient is not implemented with boundary::pressure");
-      if (!pb_) fail("lsmps_semi_implicit: the scene has boundary::pressure but no pressure_boundary was given");
+      if (!pb_)
+        fail("lsmps_semi_implicit: the scene has boundary::pressure but no pressure_boundary was given");
       if (pb_->size() == 0) fail("lsmps_semi_implicit: the pressure boundary has no particles");
     } else {
       if (pb_) fail("lsmps_semi_implicit: a pressure boundary given to a scene without boundary::pressure");
@@ -601,8 +644,11 @@ class lsmps_semi_implicit {
       std::sort(ids.begin(), ids.end());
       for (std::size_t k = 0; k < held.size(); ++k)
         if ((k > 0 && !(held[k - 1] < held[k])) || !std::binary_search(ids.begin(), ids.end(), held[k]))
-          fail("lsmps_semi_implicit::restore: the active set's held ids must be strictly increasing ids of restored "
-               "particles (entry ", k, ": id ", held[k], ")");
+          fail(
+              "lsmps_semi_implicit::restore: the active set's held ids must be strictly increasing ids of "
+              "restored "
+              "particles (entry ",
+              k, ": id ", held[k], ")");
     }
     resolution::conservation_ledger<D> ledger = ledger_;
     ledger.restore(ledger_totals, ledger_steps);  // validates; throws before anything is changed
@@ -630,17 +676,22 @@ class lsmps_semi_implicit {
   /// The last PPE matrix (row r is particle ppe_rows()[r]; columns in the same order).
   const ppe::matrix& ppe_matrix() const { return A_; }
   const std::vector<index_t>& ppe_rows() const { return rows_; }  ///< the particle of each PPE row
-  /// The right-hand side of the last PPE solve (row order ppe_rows(); known neighbours' values moved into it).
+  /// The right-hand side of the last PPE solve (row order ppe_rows(); known neighbours' values moved into
+  /// it).
   const Eigen::VectorXd& ppe_rhs() const { return b_; }
-  const boundary::pressure_flux& last_flux() const { return last_flux_; }  ///< pressure-boundary fluxes of the last step
+  const boundary::pressure_flux& last_flux() const {
+    return last_flux_;
+  }  ///< pressure-boundary fluxes of the last step
   /// c of the last step (real + copies), in that step's particle order: after a step that resized the state
   /// (splits, merges, inflow, outflow) entry i is no longer state() particle i. The same holds for normals(),
   /// neighbours(), op() and diameter(i).
   const Eigen::VectorXd& packing_ratio() const { return c_pack_; }
-  /// ρ(B_i) of the own-loop guard's last check this step, per real particle (NaN where not checked; empty when
-  /// the guard is off). See own_loop_guard_params.
+  /// ρ(B_i) of the own-loop guard's last check this step, per real particle (NaN where not checked; empty
+  /// when the guard is off). See own_loop_guard_params.
   const Eigen::VectorXd& own_loop_gains() const { return own_loop_gain_; }
-  const points<D>& normals() const { return normal_; }  ///< normals of the last step (its order: packing_ratio())
+  const points<D>& normals() const {
+    return normal_;
+  }  ///< normals of the last step (its order: packing_ratio())
   const time_step_controller& time_step() const { return dt_ctrl_; }  ///< Δt controller
   /// Split/merge ledger (Scene::resolution): one closed step per step() call.
   const resolution::conservation_ledger<D>& ledger() const { return ledger_; }
@@ -652,7 +703,8 @@ class lsmps_semi_implicit {
   /// in that step's particle order (see packing_ratio()).
   vec<D> shift_displacement(index_t i) const {
     if constexpr (has_shift)
-      if (i < 0 || i >= dx_.cols()) fail("lsmps_semi_implicit::shift_displacement: i = ", i, ", accepted range [0, ", dx_.cols(), ")");
+      if (i < 0 || i >= dx_.cols())
+        fail("lsmps_semi_implicit::shift_displacement: i = ", i, ", accepted range [0, ", dx_.cols(), ")");
     return dx_shift(i);
   }
 
@@ -662,8 +714,8 @@ class lsmps_semi_implicit {
     if (p_.remove_outside.any()) remove_outside();
     const index_t n = s_.n_real();
     // 1. Δt: Courant α_C min L / max |u| over fluid (a deviation, the default), or eq. 64 as written,
-    //    min_i α_C L_i/|u_i| (time_step_params::per_particle_courant); the same at single resolution. The viscous
-    //    limit at the smallest L.
+    //    min_i α_C L_i/|u_i| (time_step_params::per_particle_courant); the same at single resolution. The
+    //    viscous limit at the smallest L.
     double umax = 0.0, lmin = std::numeric_limits<double>::infinity();
     double lc = 0.0, uc = 0.0;  // the Courant pair of the limiting particle
     index_t fastest = npos, limiting = npos;
@@ -713,10 +765,13 @@ class lsmps_semi_implicit {
     //    of an isolated parent is excluded with it).
     excluded_.assign(static_cast<std::size_t>(nt), 0);
     const auto is_copy = [n](index_t j) { return j >= n; };
-    surface::packing_ratio(exec::par{}, x, L_, nl_, [](index_t) { return true; }, is_copy, p_.packing, c_pack_);
+    surface::packing_ratio(
+        exec::par{}, x, L_, nl_, [](index_t) { return true; }, is_copy, p_.packing, c_pack_);
     c_.isolated += static_cast<long>(surface::isolated_flags(c_pack_.head(n), p_.packing.alpha_c, flags));
-    for (index_t i = 0; i < n; ++i) excluded_[static_cast<std::size_t>(i)] = (flags[static_cast<std::size_t>(i)] & flag::isolated) != 0;
-    for (index_t k = n; k < nc_; ++k) excluded_[static_cast<std::size_t>(k)] = excluded_[static_cast<std::size_t>(parent(k))];
+    for (index_t i = 0; i < n; ++i)
+      excluded_[static_cast<std::size_t>(i)] = (flags[static_cast<std::size_t>(i)] & flag::isolated) != 0;
+    for (index_t k = n; k < nc_; ++k)
+      excluded_[static_cast<std::size_t>(k)] = excluded_[static_cast<std::size_t>(parent(k))];
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
 
     // 5. Normals (real fluid; copies keep the wall's) and surface flags; copies inherit the parent's flag.
@@ -724,10 +779,12 @@ class lsmps_semi_implicit {
     if constexpr (has_surface) {
       const auto wanted = [&](index_t i) { return i < n && participates(i); };
       surface::normals(exec::par{}, x, L_, nl_, participates, normal_, normal_degenerate_, wanted);
-      surface::geometric(exec::par{}, x, L_, nl_, participates, normal_, p_.surface, surface_, wanted, walls_);
+      surface::geometric(exec::par{}, x, L_, nl_, participates, normal_, p_.surface, surface_, wanted,
+                         walls_);
       for (index_t i = 0; i < n; ++i)
         if (!participates(i)) surface_[static_cast<std::size_t>(i)] = 0;
-      for (index_t k = n; k < nc_; ++k) surface_[static_cast<std::size_t>(k)] = surface_[static_cast<std::size_t>(parent(k))];
+      for (index_t k = n; k < nc_; ++k)
+        surface_[static_cast<std::size_t>(k)] = surface_[static_cast<std::size_t>(parent(k))];
       for (index_t i = 0; i < nt; ++i)
         if (surface_[static_cast<std::size_t>(i)]) flags[static_cast<std::size_t>(i)] |= flag::surface;
     }
@@ -740,8 +797,8 @@ class lsmps_semi_implicit {
       for (index_t k = n; k < nc_; ++k) copy_mark_[static_cast<std::size_t>(k)] = 1;
     }
     if (constrained)
-      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, op::neumann_constraint<D>{&normal_, &copy_mark_},
-                  participates);
+      op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_},
+                  op::neumann_constraint<D>{&normal_, &copy_mark_}, participates);
     else
       op_.compute(exec::par{}, x, nl_, op::per_particle_size{&L_}, participates);
     if (neumann_points())
@@ -809,8 +866,9 @@ class lsmps_semi_implicit {
       // average, not the fluid's own field: 1.7 % off a uniform start-up flow, measured) are left out. The
       // filter reads every value before it writes any, so u is both the fitted values and the output.
       const auto fitted = [&](index_t j) { return j < nc_ && participates(j); };
-      const regularize::boundary_filter_report fr = regularize::boundary_filter(
-          exec::par{}, x, L_, nl_, support(), p_.op, fitted, one_sided, n, p_.boundary_filter, s_.u(), s_.u(), filter_du_);
+      const regularize::boundary_filter_report fr =
+          regularize::boundary_filter(exec::par{}, x, L_, nl_, support(), p_.op, fitted, one_sided, n,
+                                      p_.boundary_filter, s_.u(), s_.u(), filter_du_);
       c_.filtered += static_cast<long>(fr.filtered);
       c_.filter_amplifying += static_cast<long>(fr.amplifying);
       c_.filter_tapered += static_cast<long>(fr.tapered);
@@ -823,7 +881,8 @@ class lsmps_semi_implicit {
     // 11. Guard, wrap, checks.
     if constexpr (has_walls) {
       // The guard reads and writes the first n columns only (the copies behind them are left as they are).
-      c_.guarded += wall::guard_crossings(exec::par{}, xold_, s_.x(), s_.u(), L_, n, *walls_, p_.guard, &flags);
+      c_.guarded +=
+          wall::guard_crossings(exec::par{}, xold_, s_.x(), s_.u(), L_, n, *walls_, p_.guard, &flags);
     }
     if (p_.domain.any_periodic())
       for (index_t i = 0; i < n; ++i) s_.x().col(i) = p_.domain.wrap(s_.x().col(i));
@@ -835,7 +894,8 @@ class lsmps_semi_implicit {
       boundary_exchange plan = plan_boundary_exchange();
       if constexpr (has_resolution) {
         resolve_sizes(&plan.remove);
-        if (last_resolution_.splits + last_resolution_.merges > 0) remap_marks(plan.remove);  // else no resize
+        if (last_resolution_.splits + last_resolution_.merges > 0)
+          remap_marks(plan.remove);  // else no resize
       }
       apply_boundary_exchange(plan);
       if constexpr (has_resolution) {
@@ -896,7 +956,8 @@ class lsmps_semi_implicit {
         wall::wall_visibility<D> vis{walls_, &s_.x(), s_.n_real(), &copies_, &p_.domain};
         vis.other_ghosts = s_.size() - s_.n_real() - static_cast<index_t>(copies_.size());
         vis.prepare(exec::par{}, p_.op.re_ratio * L_.maxCoeff() * (1.0 + p_.skin));
-        nl_.build(exec::par{}, s_.x(), search::per_particle_radius{&L_, p_.op.re_ratio}, {p_.skin, p_.domain}, vis);
+        nl_.build(exec::par{}, s_.x(), search::per_particle_radius{&L_, p_.op.re_ratio}, {p_.skin, p_.domain},
+                  vis);
         ++c_.list_builds;
         return;
       }
@@ -911,7 +972,8 @@ class lsmps_semi_implicit {
     const index_t n = s_.n_real();
     sizes_from_volumes();
     copies_.clear();
-    const auto rep = wall::make_imaginary(exec::par{}, s_.x(), L_, n, [](index_t) { return true; }, *walls_, p_.walls, copies_);
+    const auto rep = wall::make_imaginary(
+        exec::par{}, s_.x(), L_, n, [](index_t) { return true; }, *walls_, p_.walls, copies_);
     c_.copies += static_cast<long>(copies_.size());
     c_.small_diameter_events += static_cast<long>(rep.small_diameter_events);
     const index_t m = static_cast<index_t>(copies_.size());
@@ -919,8 +981,10 @@ class lsmps_semi_implicit {
     // first_copy_: the copies of particle i are [n + first_copy_[i], n + first_copy_[i + 1]); make_imaginary
     // writes them grouped by parent in ascending order (checked: the ranges must match)
     first_copy_.assign(static_cast<std::size_t>(n) + 1, 0);
-    for (index_t k = 0; k < m; ++k) ++first_copy_[static_cast<std::size_t>(copies_[static_cast<std::size_t>(k)].parent) + 1];
-    for (index_t i = 0; i < n; ++i) first_copy_[static_cast<std::size_t>(i) + 1] += first_copy_[static_cast<std::size_t>(i)];
+    for (index_t k = 0; k < m; ++k)
+      ++first_copy_[static_cast<std::size_t>(copies_[static_cast<std::size_t>(k)].parent) + 1];
+    for (index_t i = 0; i < n; ++i)
+      first_copy_[static_cast<std::size_t>(i) + 1] += first_copy_[static_cast<std::size_t>(i)];
     for (index_t k = 0; k < m; ++k) {
       const std::size_t i = static_cast<std::size_t>(copies_[static_cast<std::size_t>(k)].parent);
       if (k < first_copy_[i] || k >= first_copy_[i + 1])
@@ -968,7 +1032,8 @@ class lsmps_semi_implicit {
     const index_t n = s_.n_real();
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
     for_each_particle(exec::par{}, pb_->size(), [&](index_t k) {
-      dst.col(nc_ + k) = pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, src, participates);
+      dst.col(nc_ + k) =
+          pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, src, participates);
     });
   }
 
@@ -984,24 +1049,29 @@ class lsmps_semi_implicit {
   /// Multi-resolution with pressure boundaries: inflow creates particles of the boundary particle's diameter
   /// L_p at x_l = x_p + α_i L_p n_p (Tanaka §4.5.2), so L_p must not be one the trigger splits there (with
   /// Tanaka's thresholds L*(x_l) < β_s L_p). Such faces feed the refined layer beside them with coarse
-  /// particles that split on arrival, next to the face where P_b is imposed: in the 3D duct the flow then lagged
-  /// 3.8 % against 0.7 % with the faces at the target spacing (docs/resolution.md). Refused here with the remedy
-  /// (ours: the paper does not discuss it). Finer boundary particles than the target are accepted: their inflow
-  /// particles merge in the fluid, counted as merges (a 3D face triangle is cut uniformly at the smallest L* of
-  /// its corners, so a face spanning a refined and a coarse zone always has some). A target reading the context
-  /// gets the inflow point's wall distance; its surface distance is +inf and its index npos (no particle yet).
+  /// particles that split on arrival, next to the face where P_b is imposed: in the 3D duct the flow then
+  /// lagged 3.8 % against 0.7 % with the faces at the target spacing (docs/resolution.md). Refused here with
+  /// the remedy (ours: the paper does not discuss it). Finer boundary particles than the target are accepted:
+  /// their inflow particles merge in the fluid, counted as merges (a 3D face triangle is cut uniformly at the
+  /// smallest L* of its corners, so a face spanning a refined and a coarse zone always has some). A target
+  /// reading the context gets the inflow point's wall distance; its surface distance is +inf and its index
+  /// npos (no particle yet).
   void check_boundary_spacing() const {
     const auto& rp = p_.resolution;
     if (!rp.split) return;  // nothing splits
     for (index_t k = 0; k < pb_->size(); ++k) {
       const double Lp = pb_->diameters()[k];
       const auto tp = rp.target_diameter.point(
-          vec<D>(pb_->x().col(k) + pb_->params().alpha_i * Lp * pb_->normals().col(k)), [this](const vec<D>& y) {
-            if constexpr (has_walls) return walls_->signed_distance(y);
-            else return std::numeric_limits<double>::infinity();
+          vec<D>(pb_->x().col(k) + pb_->params().alpha_i * Lp * pb_->normals().col(k)),
+          [this](const vec<D>& y) {
+            if constexpr (has_walls)
+              return walls_->signed_distance(y);
+            else
+              return std::numeric_limits<double>::infinity();
           });
       const double Ls = rp.target_diameter.checked(tp, "lsmps_semi_implicit", [&] {
-        return mpskit::detail::concat("the inflow point (", tp.x.transpose(), ") of pressure-boundary particle ", k);
+        return mpskit::detail::concat("the inflow point (", tp.x.transpose(),
+                                      ") of pressure-boundary particle ", k);
       });
       if (resolution_type::trigger::template decide<D>(Ls, Lp) == resolution::want::split)
         fail("lsmps_semi_implicit: pressure-boundary particle ", k, " at (", pb_->x().col(k).transpose(),
@@ -1018,7 +1088,8 @@ class lsmps_semi_implicit {
     const auto participates = [this](index_t j) { return !excluded_[static_cast<std::size_t>(j)]; };
     points<D> ub(D, nb);
     for (index_t k = 0; k < nb; ++k)
-      ub.col(k) = pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, s_.u(), participates);
+      ub.col(k) =
+          pb_->averaged_velocity(s_.x(), nl_, nc_ + k, k, n, L_, p_.op.re_ratio, s_.u(), participates);
     const auto& V = s_.template get<field::volume>();
     boundary_exchange plan;
     plan.remove.assign(static_cast<std::size_t>(n), 0);
@@ -1031,8 +1102,9 @@ class lsmps_semi_implicit {
   }
 
   /// lsmps_params::remove_outside: at the step's start (no ghosts), the real particles outside the box are
-  /// removed through the state's resize path; their volume and momentum go to the ledger as a flux. (Positions are
-  /// finite here: the constructor and restore() validate them and every step ends with check_finite().)
+  /// removed through the state's resize path; their volume and momentum go to the ledger as a flux.
+  /// (Positions are finite here: the constructor and restore() validate them and every step ends with
+  /// check_finite().)
   void remove_outside() {
     const index_t n = s_.n_real();
     std::vector<std::uint8_t> marks(static_cast<std::size_t>(n), 0);
@@ -1049,8 +1121,10 @@ class lsmps_semi_implicit {
       }
     if (k == 0) return;
     if (k == n)
-      fail("lsmps_semi_implicit: every particle (", n, ") lies outside lsmps_params::remove_outside at the start of "
-           "step ", c_.steps + 1, ": nothing left to simulate");
+      fail("lsmps_semi_implicit: every particle (", n,
+           ") lies outside lsmps_params::remove_outside at the start of "
+           "step ",
+           c_.steps + 1, ": nothing left to simulate");
     s_.remove(marks);
     c_.left_domain += static_cast<long>(k);
     c_.left_domain_volume += volume;
@@ -1103,17 +1177,21 @@ class lsmps_semi_implicit {
   }
 
   /// 9c. Seed 001 eq. 13 between the participating fluid particles and against their copies (wall velocity,
-  /// immovable) on this step's list at x^k (the velocities are the corrected, filtered ones; the copies' u is the
-  /// wall's); the isolated ones too with collision.isolated. Pressure-boundary particles take no part. Jacobi:
-  /// every Δu from the same u.
+  /// immovable) on this step's list at x^k (the velocities are the corrected, filtered ones; the copies' u is
+  /// the wall's); the isolated ones too with collision.isolated. Pressure-boundary particles take no part.
+  /// Jacobi: every Δu from the same u.
   void collide(index_t n) {
     // excluded_ marks the isolated particles and their copies: in the stage only with collision.isolated.
     const bool all = p_.collision.isolated;
-    const auto movable = [this, n, all](index_t i) { return i < n && (all || !excluded_[static_cast<std::size_t>(i)]); };
-    const auto partner = [this, all](index_t j) { return j < nc_ && (all || !excluded_[static_cast<std::size_t>(j)]); };
+    const auto movable = [this, n, all](index_t i) {
+      return i < n && (all || !excluded_[static_cast<std::size_t>(i)]);
+    };
+    const auto partner = [this, all](index_t j) {
+      return j < nc_ && (all || !excluded_[static_cast<std::size_t>(j)]);
+    };
     const regularize::collision_report rep =
-        regularize::sized_collisions(exec::par{}, s_.x(), s_.u(), L_, s_.template get<field::volume>(), nl_, partner,
-                                     movable, p_.collision, collision_du_);
+        regularize::sized_collisions(exec::par{}, s_.x(), s_.u(), L_, s_.template get<field::volume>(), nl_,
+                                     partner, movable, p_.collision, collision_du_);
     s_.u().leftCols(n) += collision_du_.leftCols(n);
     c_.collisions += static_cast<long>(rep.pairs);
     c_.collision_coincident += static_cast<long>(rep.coincident);
@@ -1131,7 +1209,8 @@ class lsmps_semi_implicit {
     for_each_particle(exec::par{}, n, [&](index_t i) {
       if (participates(i)) grad_c.col(i) = op_.gradient(x, nl_, i, c_pack_, participates);
     });
-    std::vector<std::uint8_t> tangential(static_cast<std::size_t>(nt), 0), active(static_cast<std::size_t>(n), 0);
+    std::vector<std::uint8_t> tangential(static_cast<std::size_t>(nt), 0),
+        active(static_cast<std::size_t>(n), 0);
     for (index_t i = 0; i < n; ++i) {
       active[static_cast<std::size_t>(i)] = participates(i);
       tangential[static_cast<std::size_t>(i)] = surface_[static_cast<std::size_t>(i)];
@@ -1145,12 +1224,13 @@ class lsmps_semi_implicit {
       if (wall_normal_.col(i).isZero(0.0)) wall_normal_.col(i) = normal_.col(k);
       else if (second && wall_normal2_.col(i).isZero(0.0) &&
                std::abs(wall_normal_.col(i).dot(normal_.col(k))) < 1.0 - 1e-6)
-        wall_normal2_.col(i) = normal_.col(k);  // a second wall (an edge, a corner): tangential to it too (ours)
+        wall_normal2_.col(i) =
+            normal_.col(k);  // a second wall (an edge, a corner): tangential to it too (ours)
     }
-    // Within 2 L_i of a pressure-boundary particle: no shifting (a deviation; Tanaka is silent). Unrestricted,
-    // it pushed the particles beside an outflow face into the gaps that removals leave (the 20 mm channel
-    // failed at step 227); tangential to the face (eq. 99 with n_p), it pushed them between the boundary
-    // particles, past the outflow test r_ip < α_o L, and the channel failed at step 142.
+    // Within 2 L_i of a pressure-boundary particle: no shifting (a deviation; Tanaka is silent).
+    // Unrestricted, it pushed the particles beside an outflow face into the gaps that removals leave (the
+    // 20 mm channel failed at step 227); tangential to the face (eq. 99 with n_p), it pushed them between the
+    // boundary particles, past the outflow test r_ip < α_o L, and the channel failed at step 142.
     for (index_t k = nc_; k < nt; ++k)
       for (const auto jj : nl_.neighbours(k)) {
         const index_t i = static_cast<index_t>(jj);
@@ -1160,12 +1240,13 @@ class lsmps_semi_implicit {
     std::vector<std::uint8_t> penalty_only;  // deviation 18: real isolated particles, eq. 96 only
     if (p_.shift_isolated_penalty) {
       penalty_only.assign(static_cast<std::size_t>(nt), 0);
-      for (index_t i = 0; i < n; ++i) penalty_only[static_cast<std::size_t>(i)] = excluded_[static_cast<std::size_t>(i)];
+      for (index_t i = 0; i < n; ++i)
+        penalty_only[static_cast<std::size_t>(i)] = excluded_[static_cast<std::size_t>(i)];
     }
-    const auto rep = regularize::tanaka_shift_displacement(exec::par{}, x, L_, nl_, participates, grad_c, normal_,
-                                                           tangential, active, p_.shift, dx_, &wall_normal_,
-                                                           second ? &wall_normal2_ : nullptr,
-                                                           p_.shift_isolated_penalty ? &penalty_only : nullptr);
+    const auto rep = regularize::tanaka_shift_displacement(
+        exec::par{}, x, L_, nl_, participates, grad_c, normal_, tangential, active, p_.shift, dx_,
+        &wall_normal_, second ? &wall_normal2_ : nullptr,
+        p_.shift_isolated_penalty ? &penalty_only : nullptr);
     c_.shift_limited += static_cast<long>(rep.limited);
     c_.shift_coincident += static_cast<long>(rep.coincident_pairs);
     if (p_.shift_merged_faces && walls_ && nc_ > n) keep_off_merged_faces(n);
@@ -1192,12 +1273,12 @@ class lsmps_semi_implicit {
     s_.u().leftCols(n) = u_new_;
     c_.shift_velocity_clipped += std::count(clipped.begin(), clipped.end(), std::uint8_t{1});
   }
-  /// Deviation 14 (docs/lsmps_scheme.md): for particle i with copies, every face within α_w L_i whose foot lies
-  /// on it and which is seen from the front ((x_i − q)·n ≥ 0, as wall/imaginary.hpp decides copies) but whose
-  /// normal is no copy's normal of i was merged away; if δx_i points into it (δx·n < 0) that component is
-  /// removed. The merge angle is < 90°, so n·n_copy > 0 and the removal leaves δx·n_copy ≥ 0: eq. 99's own
-  /// wall is not entered either. Only a concave kink has two faces' feet in reach: at a convex corner the feet
-  /// exclude each other. |δx| only shrinks, so eq. 100's limit still holds.
+  /// Deviation 14 (docs/lsmps_scheme.md): for particle i with copies, every face within α_w L_i whose foot
+  /// lies on it and which is seen from the front ((x_i − q)·n ≥ 0, as wall/imaginary.hpp decides copies) but
+  /// whose normal is no copy's normal of i was merged away; if δx_i points into it (δx·n < 0) that component
+  /// is removed. The merge angle is < 90°, so n·n_copy > 0 and the removal leaves δx·n_copy ≥ 0: eq. 99's own
+  /// wall is not entered either. Only a concave kink has two faces' feet in reach: at a convex corner the
+  /// feet exclude each other. |δx| only shrinks, so eq. 100's limit still holds.
   void keep_off_merged_faces(index_t n) {
     const points<D>& x = s_.x();
     for_each_particle(exec::par{}, n, [&](index_t i) {
@@ -1226,7 +1307,8 @@ class lsmps_semi_implicit {
     }
   }
 
-  /// 8. The PPE: solve_pressure_with_set, then, with lsmps_params::own_loop, the own-loop guard's checks, each
+  /// 8. The PPE: solve_pressure_with_set, then, with lsmps_params::own_loop, the own-loop guard's checks,
+  ///    each
   /// followed by a new solve when it marked a particle.
   void solve_pressure(double dt) {
     if (p_.own_loop.enabled) {
@@ -1263,7 +1345,8 @@ class lsmps_semi_implicit {
     op::row_entries row;
     for (index_t i = 0; i < n; ++i) {
       const std::size_t si = static_cast<std::size_t>(i);
-      if (!participates(i) || own_loop_dirichlet_[si] || own_loop_one_point_[si] || own_loop_zero_copies_[si]) continue;
+      if (!participates(i) || own_loop_dirichlet_[si] || own_loop_one_point_[si] || own_loop_zero_copies_[si])
+        continue;
       const index_t k0 = n + first_copy(i), k1 = n + first_copy(i + 1);
       bool candidate = false;
       if (!surface_[si]) {
@@ -1347,14 +1430,15 @@ class lsmps_semi_implicit {
         own_loop_dirichlet_[static_cast<std::size_t>(i)] = 1;
         ++c_.own_loop_dirichlet;
       }
-    // Surface parents: one-point copy rows are gradient rows of the parent's fit with no diagonal of their own.
-    // A group of one-point parents whose fits see no unknown but the group's own copies is a gradient-only
-    // system, singular when the fits are exactly determined: two surface particles alone in a corner (each fit:
-    // the other particle and the four copies), where the quadratic ((x − x₁)·m)², m ⊥ x₂ − x₁, vanishes with
-    // its gradient at both parents and not at the copies (σ_min = 0 measured at 3.0, 3.4 and 4.4 mm). A parent
-    // is tied when its fit sees an unknown outside the group (a fluid particle, a copy with a two-point row) or a
-    // copy of a tied parent; the group is this round's surface marks with the earlier rounds' one-point parents,
-    // whose ties a new member can close. Tied parents get the one-point rows, the others p = 0 copies.
+    // Surface parents: one-point copy rows are gradient rows of the parent's fit with no diagonal of their
+    // own. A group of one-point parents whose fits see no unknown but the group's own copies is a
+    // gradient-only system, singular when the fits are exactly determined: two surface particles alone in a
+    // corner (each fit: the other particle and the four copies), where the quadratic ((x − x₁)·m)², m ⊥ x₂
+    // − x₁, vanishes with its gradient at both parents and not at the copies (σ_min = 0 measured at 3.0, 3.4
+    // and 4.4 mm). A parent is tied when its fit sees an unknown outside the group (a fluid particle, a copy
+    // with a two-point row) or a copy of a tied parent; the group is this round's surface marks with the
+    // earlier rounds' one-point parents, whose ties a new member can close. Tied parents get the one-point
+    // rows, the others p = 0 copies.
     std::vector<index_t> group;
     for (index_t i = 0; i < n; ++i)
       if (own_loop_one_point_[static_cast<std::size_t>(i)]) group.push_back(i);
@@ -1365,7 +1449,9 @@ class lsmps_semi_implicit {
         own_loop_one_point_[static_cast<std::size_t>(i)] = 2;  // a member, for the ties below
       }
     if (!group.empty()) {
-      const auto member_copy = [&](index_t j) { return j >= n && j < nc_ && own_loop_one_point_[static_cast<std::size_t>(parent(j))]; };
+      const auto member_copy = [&](index_t j) {
+        return j >= n && j < nc_ && own_loop_one_point_[static_cast<std::size_t>(parent(j))];
+      };
       std::vector<std::uint8_t> tied(group.size(), 0);
       for (std::size_t g = 0; g < group.size(); ++g)
         nl_.for_each_neighbour(x, group[g], support(), [&](index_t j, const vec<D>&, double) {
@@ -1380,7 +1466,8 @@ class lsmps_semi_implicit {
           nl_.for_each_neighbour(x, group[g], support(), [&](index_t j, const vec<D>&, double) {
             if (tied[g] || !member_copy(j)) return;
             const auto h = std::find(group.begin(), group.end(), parent(j));
-            if (h != group.end() && tied[static_cast<std::size_t>(h - group.begin())]) tied[g] = changed = true;
+            if (h != group.end() && tied[static_cast<std::size_t>(h - group.begin())])
+              tied[g] = changed = true;
           });
         }
       }
@@ -1397,16 +1484,17 @@ class lsmps_semi_implicit {
     return static_cast<index_t>(marked.size());
   }
 
-  /// The PPE with the own-loop guard's p = 0 rows and the active set of lsmps_params::active_set_solves (p ≥ 0;
-  /// ours, docs/lsmps_scheme.md deviation 13): particles whose solved pressure is negative join the set (Dirichlet p = 0) and the system
-  /// is built and solved again. A primal active-set iteration for the complementarity problem p ≥ 0 of
-  /// Miyamoto & Koshizuka (arXiv:2302.14245, an MPS-family method with the incompressibility constraint as an
-  /// LCP). By default without its release step: the set only grows within a step. With active_set_release,
-  /// particles held at p = 0 whose row says they are compressed leave the set between the solves (the
-  /// primal–dual active-set iteration; measured in docs/lsmps_scheme.md); with active_set_warm_start the set starts
-  /// from the one the last solve ended with, and the releases are tested after the first solve too. The repeats reuse the first build's
-  /// rows (active_set_reuse_rows; 1.41× → 1.23× the wall time without the set at 4 mm), except after a release,
-  /// which brings rows back: the next solve builds them all.
+  /// The PPE with the own-loop guard's p = 0 rows and the active set of lsmps_params::active_set_solves
+  /// (p ≥ 0; ours, docs/lsmps_scheme.md deviation 13): particles whose solved pressure is negative join the
+  /// set (Dirichlet p = 0) and the system is built and solved again. A primal active-set iteration for the
+  /// complementarity problem p ≥ 0 of Miyamoto & Koshizuka (arXiv:2302.14245, an MPS-family method with the
+  /// incompressibility constraint as an LCP). By default without its release step: the set only grows within
+  /// a step. With active_set_release, particles held at p = 0 whose row says they are compressed leave the
+  /// set between the solves (the primal–dual active-set iteration; measured in docs/lsmps_scheme.md); with
+  /// active_set_warm_start the set starts from the one the last solve ended with, and the releases are tested
+  /// after the first solve too. The repeats reuse the first build's rows (active_set_reuse_rows;
+  /// 1.41× → 1.23× the wall time without the set at 4 mm), except after a release, which brings rows back:
+  /// the next solve builds them all.
   void solve_pressure_with_set(double dt) {
     const index_t n = s_.n_real();
     auto& pres = s_.template get<field::pressure>();
@@ -1478,13 +1566,14 @@ class lsmps_semi_implicit {
     std::sort(held_ids_.begin(), held_ids_.end());
   }
 
-  /// The releases of lsmps_params::active_set_release: the real fluid particles held at p = 0 by the active set
-  /// (not by the own-loop guard) whose own PPE row, built as an unknown's and evaluated at the current pressures,
-  /// has w = b − Σ_j a_ij p_j < 0 with a diagonal a_ii < 0 — freed, the particle would take p ≈ w / a_ii > 0 (it
-  /// is being compressed). Listed in release_ (applied by the caller after this solve's joins); returns their
-  /// number. The rows do not depend on the set, so this is the row the particle had before it joined.
-  /// (Keeping the first build's rows of the members, for this and for the solve after a release, instead of
-  /// building them again: tried 2026-12-05, the same results (bitwise in the tests), slower at 5 mm in 3 rounds.)
+  /// The releases of lsmps_params::active_set_release: the real fluid particles held at p = 0 by the active
+  /// set (not by the own-loop guard) whose own PPE row, built as an unknown's and evaluated at the current
+  /// pressures, has w = b − Σ_j a_ij p_j < 0 with a diagonal a_ii < 0 — freed, the particle would take p ≈ w
+  /// / a_ii > 0 (it is being compressed). Listed in release_ (applied by the caller after this solve's
+  /// joins); returns their number. The rows do not depend on the set, so this is the row the particle had
+  /// before it joined. (Keeping the first build's rows of the members, for this and for the solve after a
+  /// release, instead of building them again: tried 2026-12-05, the same results (bitwise in the tests),
+  /// slower at 5 mm in 3 rounds.)
   long mark_active_set_releases(double dt) {
     const index_t n = s_.n_real();
     const auto& pres = s_.template get<field::pressure>();
@@ -1504,12 +1593,13 @@ class lsmps_semi_implicit {
       release_flag_[static_cast<std::size_t>(k)] = b - ap < 0.0;
     });
     for (index_t k = 0; k < m; ++k)
-      if (release_flag_[static_cast<std::size_t>(k)]) release_.push_back(release_candidates_[static_cast<std::size_t>(k)]);
+      if (release_flag_[static_cast<std::size_t>(k)])
+        release_.push_back(release_candidates_[static_cast<std::size_t>(k)]);
     return static_cast<long>(release_.size());
   }
 
-  /// One PPE row (stage 8) of unknown particle i at the current ut_, comp_ and dpdn_: its coefficients in `row`
-  /// (merged), its right-hand side returned, before the known neighbours' values are moved into it.
+  /// One PPE row (stage 8) of unknown particle i at the current ut_, comp_ and dpdn_: its coefficients in
+  /// `row` (merged), its right-hand side returned, before the known neighbours' values are moved into it.
   double build_ppe_row(index_t i, double dt, op::row_entries& row) const {
     const index_t n = s_.n_real();
     const points<D>& x = s_.x();
@@ -1520,7 +1610,8 @@ class lsmps_semi_implicit {
       // (1/ρ) n_k·⟨∇p⟩_parent = (u′_parent − u_wall)·n_k/Δt, the parent's own LSMPS gradient stencil.
       const index_t ip = parent(i);
       row.reset(ip);
-      op_.build_row(x, nl_, ip, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+      op_.build_row(x, nl_, ip,
+                    typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
                     participates, row);
       b = dpdn_[i] / p_.rho - row.constant();
       if (p_.copy_two_point > 0.0) {
@@ -1539,7 +1630,8 @@ class lsmps_semi_implicit {
     } else if (i >= n && p_.copy_row == copy_row_kind::neumann) {
       // Eq. 83 as the copy's row: (1/ρ) n·∇p = (u′_w − u_wall)·n/Δt.
       row.reset(i);
-      op_.build_row(x, nl_, i, typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
+      op_.build_row(x, nl_, i,
+                    typename op_type::vector(op_type::directional_selector(normal_.col(i)) / p_.rho),
                     participates, row);
       b = dpdn_[i] / p_.rho - row.constant();
     } else {
@@ -1574,10 +1666,12 @@ class lsmps_semi_implicit {
     // there is nothing to solve (every fluid particle a surface one; until 2026-11-29 it was set after the
     // m = 0 return, and such a step read an empty or the previous step's vector).
     dpdn_.setZero(nt);
-    for (index_t k = n; k < nc_; ++k) dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
-    // The rows are built twice when a fluid row's operator has a non-negative diagonal (wrong_sign_rows below):
-    // its particle becomes a Dirichlet p = 0 row and the unknowns, the c′ = 1 band and the right-hand sides are
-    // made again (the rows' coefficients do not depend on which particles are unknowns, so one repeat suffices).
+    for (index_t k = n; k < nc_; ++k)
+      dpdn_[k] = p_.rho * (ut_.col(k) - s_.u().col(k)).dot(normal_.col(k)) / dt;
+    // The rows are built twice when a fluid row's operator has a non-negative diagonal (wrong_sign_rows
+    // below): its particle becomes a Dirichlet p = 0 row and the unknowns, the c′ = 1 band and the right-hand
+    // sides are made again (the rows' coefficients do not depend on which particles are unknowns, so one
+    // repeat suffices).
     index_t m = 0;
     for (int pass = 0; pass < 2; ++pass) {
       unk_.assign(static_cast<std::size_t>(nt), npos);
@@ -1586,11 +1680,13 @@ class lsmps_semi_implicit {
         // Unknowns: non-surface participating particles; with the parent-gradient wall row also the copies of
         // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
         // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step),
-        // except the copies the own-loop guard made p = 0 rows and those in the active set (active_set_copies).
+        // except the copies the own-loop guard made p = 0 rows and those in the active set
+        // (active_set_copies).
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
-        const bool copy_unknown = i >= n && p_.copy_row == copy_row_kind::parent_gradient &&
-                                  !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]) &&
-                                  !active_set_[static_cast<std::size_t>(i)];  // active_set_copies
+        const bool copy_unknown =
+            i >= n && p_.copy_row == copy_row_kind::parent_gradient &&
+            !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]) &&
+            !active_set_[static_cast<std::size_t>(i)];  // active_set_copies
         if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
         const bool known = surface_[static_cast<std::size_t>(i)] || active_set_[static_cast<std::size_t>(i)];
         if (participates(i) && (!known || copy_unknown)) {
@@ -1607,19 +1703,19 @@ class lsmps_semi_implicit {
 
       // Near the free surface the packing ratio measures the void above, not a compression: the row below
       // the surface of a lattice at rest has c = 0.90 < c_min, so eq. 62 compressed it every step (measured:
-      // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle closer
-      // than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
-      // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on the
-      // face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq. 62
-      // pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at t = 0.02 s).
-      // The same next to a wall (a deviation, docs/lsmps_scheme.md): the copies on the wall bias c (1.08–1.20
-      // within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at rest (3e-2 √(gH)
-      // within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to −14 kPa.
-      // The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface particle, or one
-      // with a copy, a pressure-boundary or a surface particle among its neighbours, or (multi-resolution) a
-      // neighbour whose diameter differs by more than boundary_filter.size_ratio: a mixed-size stencil is as
-      // asymmetric as a one-sided one (measured, docs/resolution.md: a refined disc in a tank at rest, 2:1, grew
-      // to 0.5 √(gH) by 4 √(H/g) without it and stayed at 1.3e-4 with it).
+      // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle
+      // closer than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
+      // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on
+      // the face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq.
+      // 62 pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at
+      // t = 0.02 s). The same next to a wall (a deviation, docs/lsmps_scheme.md): the copies on the wall bias
+      // c (1.08–1.20 within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at
+      // rest (3e-2 √(gH) within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to
+      // −14 kPa. The same sweep flags the one-sided band of the velocity filter (stage 9b): a surface
+      // particle, or one with a copy, a pressure-boundary or a surface particle among its neighbours, or
+      // (multi-resolution) a neighbour whose diameter differs by more than boundary_filter.size_ratio: a
+      // mixed-size stencil is as asymmetric as a one-sided one (measured, docs/resolution.md: a refined disc
+      // in a tank at rest, 2:1, grew to 0.5 √(gH) by 4 √(H/g) without it and stayed at 1.3e-4 with it).
       fixed_volume_.assign(static_cast<std::size_t>(nt), 0);
       const double rs = p_.boundary_filter.size_ratio;
       const bool mixed_sizes = n > 0 && L_.head(n).maxCoeff() > rs * L_.head(n).minCoeff();
@@ -1697,9 +1793,10 @@ class lsmps_semi_implicit {
     dirichlet_.assign(static_cast<std::size_t>(w), 0);
     for_each_particle(exec::par{}, w, [&](index_t r) {
       bool dir = false;
-      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)], [&](index_t j, double a) {
-        if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) dir = true;
-      });
+      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)],
+                     [&](index_t j, double a) {
+                       if (unk_[static_cast<std::size_t>(j)] == npos && a != 0.0) dir = true;
+                     });
       dirichlet_[static_cast<std::size_t>(r)] = dir;
     });
     return w;
@@ -1716,9 +1813,10 @@ class lsmps_semi_implicit {
     std::vector<std::ptrdiff_t> outer(static_cast<std::size_t>(m + 1), 0);
     for (index_t r = 0; r < m; ++r) {
       std::ptrdiff_t cnt = 0;
-      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)], [&](index_t j, double) {
-        if (unk_[static_cast<std::size_t>(j)] != npos) ++cnt;
-      });
+      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)],
+                     [&](index_t j, double) {
+                       if (unk_[static_cast<std::size_t>(j)] != npos) ++cnt;
+                     });
       outer[static_cast<std::size_t>(r + 1)] = outer[static_cast<std::size_t>(r)] + cnt;
     }
     A_.resize(m, m);
@@ -1728,12 +1826,13 @@ class lsmps_semi_implicit {
     double* val = A_.valuePtr();
     for_each_particle(exec::par{}, m, [&](index_t r) {
       std::ptrdiff_t at = outer[static_cast<std::size_t>(r)];
-      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)], [&](index_t j, double a) {
-        const index_t cj = unk_[static_cast<std::size_t>(j)];
-        if (cj == npos) return;
-        inner[at] = cj;
-        val[at++] = a;
-      });
+      for_each_entry(row_buf_[static_cast<std::size_t>(r)], rows_[static_cast<std::size_t>(r)],
+                     [&](index_t j, double a) {
+                       const index_t cj = unk_[static_cast<std::size_t>(j)];
+                       if (cj == npos) return;
+                       inner[at] = cj;
+                       val[at++] = a;
+                     });
     });
     const bool same_unknowns = same_unknowns_as_before();
     pin_floating_parts(same_unknowns);
@@ -1793,7 +1892,8 @@ class lsmps_semi_implicit {
     }
     const bool same = key_ == prev_key_;
     to_previous_.clear();
-    if (!same && p_.solver.ilut_reuse_across_changes) {  // row of each unknown in the previous system, by identity
+    if (!same &&
+        p_.solver.ilut_reuse_across_changes) {  // row of each unknown in the previous system, by identity
       std::vector<index_t> order(prev_key_.size());
       for (std::size_t q = 0; q < order.size(); ++q) order[q] = static_cast<index_t>(q);
       std::sort(order.begin(), order.end(), [&](index_t a, index_t b) {
@@ -1837,9 +1937,9 @@ class lsmps_semi_implicit {
   /// Row i of (1/ρ) Σ_ab cof(A)_ab ∂_b⟨∇_a p⟩ with S = cof(A)/ρ: the LSMPS-A gradient (eq. 41) of the LSMPS-A
   /// gradient, i.e. the linearisation of det(A − (Δt²/ρ) ∇⟨∇p⟩) (eq. 58, Jacobi's formula) with the velocity
   /// correction's own operator, so that the corrected velocity satisfies the discrete condition exactly.
-  /// ⟨∂_b f⟩_i = Σ_j c_ij,b (f_j − f_i), so the row is Σ_j q_j·[(Gp)_j − (Gp)_i] with q_j = Sᵀ-contracted c_ij;
-  /// a copy j carries its parent's gradient (its velocity is the parent's in ∇u′, copy_velocity = extrapolated).
-  /// Two neighbour generations wide (≈ 80 entries per 2D row against ≈ 27).
+  /// ⟨∂_b f⟩_i = Σ_j c_ij,b (f_j − f_i), so the row is Σ_j q_j·[(Gp)_j − (Gp)_i] with q_j = Sᵀ-contracted
+  /// c_ij; a copy j carries its parent's gradient (its velocity is the parent's in ∇u′,
+  /// copy_velocity = extrapolated). Two neighbour generations wide (≈ 80 entries per 2D row against ≈ 27).
   void build_nested_row(index_t i, const mat<D>& S, op::row_entries& row) const {
     const index_t n = s_.n_real();
     const points<D>& x = s_.x();
@@ -1902,8 +2002,8 @@ class lsmps_semi_implicit {
   /// Counted in pinned_components.
   /// same_unknowns: this step's unknowns are the previous step's (same_unknowns_as_before()).
   void pin_floating_parts(bool same_unknowns) {
-    const auto floating = ppe::find_floating_parts(A_, dirichlet_, false,
-                                                   [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
+    const auto floating = ppe::find_floating_parts(
+        A_, dirichlet_, false, [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
     // The adjoint solver's factors are the previous step's only if that step solved with it as well.
     const bool adjoint_same = same_unknowns && floating_before_;
     floating_before_ = !floating.empty();
@@ -1925,9 +2025,12 @@ class lsmps_semi_implicit {
       for (ppe::matrix::InnerIterator it(B, r); it; ++it) it.valueRef() = it.index() == r ? 1.0 : 0.0;
     }
     for (index_t r = 0; r < m; ++r) y[r] = keep[static_cast<std::size_t>(r)] || rhs[r] != 0.0 ? 1.0 : 0.0;
-    const ppe::solve_report adjoint = ppe::solve_checked(adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_, [&](index_t r) {
-      return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
-    }, adjoint_same);
+    const ppe::solve_report adjoint = ppe::solve_checked(
+        adjoint_solver_, B, rhs, y, p_.solver, c_.steps, t_,
+        [&](index_t r) {
+          return "the left-null-vector row of " + describe(rows_[static_cast<std::size_t>(r)]);
+        },
+        adjoint_same);
     c_.ppe_lagged_retries += adjoint.lagged_retry;
     c_.ppe_fallbacks += adjoint.fallback;
     c_.ppe_breakdown_restarts += adjoint.breakdown_restart;
@@ -1961,8 +2064,9 @@ class lsmps_semi_implicit {
         if ((*frozen)[i]) frozen_flags_[i] |= flag::isolated;
       flags = &frozen_flags_;
     }
-    last_resolution_ = detail::run_resolution_stage<resolution_type>(s_, nl_, L_, normal_, walls_, xold_, op_, participates,
-                                                                     p_.resolution, ledger_, flags, p_.walls.alpha_w);
+    last_resolution_ =
+        detail::run_resolution_stage<resolution_type>(s_, nl_, L_, normal_, walls_, xold_, op_, participates,
+                                                      p_.resolution, ledger_, flags, p_.walls.alpha_w);
     c_.splits += static_cast<long>(last_resolution_.splits);
     c_.merges += static_cast<long>(last_resolution_.merges);
     sizes_from_volumes();
@@ -1975,7 +2079,8 @@ class lsmps_semi_implicit {
     const auto& V = s.template get<field::volume>();
     for (index_t i = 0; i < s.n_real(); ++i) {
       if (!(std::isfinite(V[i]) && V[i] > 0.0))
-        fail("lsmps_semi_implicit: ", what, ": particle ", i, " has volume ", V[i], ": must be finite and > 0 (V = L^D)");
+        fail("lsmps_semi_implicit: ", what, ": particle ", i, " has volume ", V[i],
+             ": must be finite and > 0 (V = L^D)");
       const kind k = s.kinds()[static_cast<std::size_t>(i)];
       if (k != kind::fluid)
         fail("lsmps_semi_implicit: ", what, ": particle ", i, " is ", name(k),
@@ -2011,20 +2116,26 @@ class lsmps_semi_implicit {
   const geometry_type* walls_ = nullptr;
   const pressure_boundary_type* pb_ = nullptr;
   index_t nc_ = 0;  ///< end of the copies in the ghost range (pressure-boundary particles follow)
-  std::vector<index_t> first_copy_;  ///< copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1]) (make_copies)
+  std::vector<index_t>
+      first_copy_;  ///< copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1]) (make_copies)
   boundary::pressure_flux last_flux_{};
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
   std::array<Eigen::VectorXd, D> comp_;
   points<D> ut_, xold_, normal_, wall_normal_, wall_normal2_, dx_, filter_du_, u_new_;
-  std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_, one_sided_;
+  std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_,
+      one_sided_;
   points<D> collision_du_;                // Δu of the collision stage (9c)
-  std::vector<std::uint8_t> active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
-  std::vector<particle_id> held_ids_;  // active_set_warm_start: the set the last pressure solve ended with (ids)
-  std::vector<index_t> release_candidates_, release_;  // active_set_release: the set's fluid members, those released
+  std::vector<std::uint8_t>
+      active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
+  std::vector<particle_id>
+      held_ids_;  // active_set_warm_start: the set the last pressure solve ended with (ids)
+  std::vector<index_t> release_candidates_,
+      release_;  // active_set_release: the set's fluid members, those released
   std::vector<op::row_entries> release_buf_;            // their rows (capacity kept across steps)
   std::vector<std::uint8_t> release_flag_;
-  // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point term
+  // the own-loop guard's marks this step: p = 0 rows, and surface parents whose copies lost the two-point
+  // term
   std::vector<std::uint8_t> own_loop_dirichlet_, own_loop_one_point_;
   std::vector<std::uint8_t> own_loop_zero_copies_;  // surface parents whose copies the guard made p = 0 rows
   Eigen::VectorXd own_loop_gain_;  // ρ(B_i) of the guard's last check (NaN: not checked)
@@ -2035,8 +2146,10 @@ class lsmps_semi_implicit {
   Eigen::VectorXd b_, b_kept_;  // b_kept_: the right-hand sides as built, for the active set's repeats
   ppe::solve_report last_solve_{};
   std::vector<std::array<std::int64_t, 3>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
-  std::vector<index_t> to_previous_;  // row of each unknown in the previous system (ilut_reuse_across_changes)
-  bool floating_before_ = false;  // the previous step had floating parts (its adjoint solver holds their factors)
+  std::vector<index_t>
+      to_previous_;  // row of each unknown in the previous system (ilut_reuse_across_changes)
+  bool floating_before_ =
+      false;  // the previous step had floating parts (its adjoint solver holds their factors)
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
   std::vector<flag::type> frozen_flags_;  // the state's flags with frozen particles marked isolated

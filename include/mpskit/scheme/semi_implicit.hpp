@@ -59,7 +59,12 @@ enum class negative_pressure { clamp_to_zero, keep };
 /// `corrected_minimum` is bmmr.md eq. 29 (Wang et al. 2017): the eq. 22 stencil with the correction
 /// matrix C_i⁻¹ in place of d/n0, exact for linear fields where p̂_i = p_i (at a free surface, where the
 /// plain d/n0 gradient of a half stencil is about half the hydrostatic one); `corrected` uses p̂_i = p_i.
-enum class pressure_gradient { minimum /* eq. 22 */, plain /* eq. 21 */, corrected_minimum /* bmmr eq. 29 */, corrected };
+enum class pressure_gradient {
+  minimum /* eq. 22 */,
+  plain /* eq. 21 */,
+  corrected_minimum /* bmmr eq. 29 */,
+  corrected
+};
 
 /// No regularisation (collision or shifting) stage.
 struct no_regularization final {};
@@ -67,19 +72,20 @@ struct no_regularization final {};
 /// Runtime numbers of the semi-implicit scheme, with the papers' defaults.
 template <int D>
 struct semi_implicit_params {
-  double rho = 1000.0;                 ///< density (kg/m³)
-  double nu = 1e-6;                    ///< kinematic viscosity (m²/s)
-  vec<D> g = gravity();                ///< body force per unit mass (m/s²)
-  double l0 = 0.0;                     ///< particle spacing (m)
-  double re_small = 2.1;               ///< gradient / divergence / number density radius (in l0)
-  double re_large = 3.1;               ///< Laplacian radius (in l0)
-  double compressibility = 1e-8;       ///< α_c = 1/(ρ s²) (m s²/kg), Tanaka eq. 24 / BMMR eq. 25 (BMMR dam break: 1e-8)
+  double rho = 1000.0;    ///< density (kg/m³)
+  double nu = 1e-6;       ///< kinematic viscosity (m²/s)
+  vec<D> g = gravity();   ///< body force per unit mass (m/s²)
+  double l0 = 0.0;        ///< particle spacing (m)
+  double re_small = 2.1;  ///< gradient / divergence / number density radius (in l0)
+  double re_large = 3.1;  ///< Laplacian radius (in l0)
+  /// α_c = 1/(ρ s²) (m s²/kg), Tanaka eq. 24 / BMMR eq. 25 (BMMR dam break: 1e-8)
+  double compressibility = 1e-8;
   negative_pressure negative = negative_pressure::clamp_to_zero;  ///< after the solve
   pressure_gradient gradient = pressure_gradient::minimum;        ///< in the correction
-  time_step_params time{};             ///< Δt controller
-  ppe::solver_params solver{};         ///< linear solver stopping rule
-  double skin = 0.2;                   ///< list skin (fraction of the build radius)
-  int reorder_every = 25;              ///< steps between cell reorders (0: never)
+  time_step_params time{};                                        ///< Δt controller
+  ppe::solver_params solver{};                                    ///< linear solver stopping rule
+  double skin = 0.2;       ///< list skin (fraction of the build radius)
+  int reorder_every = 25;  ///< steps between cell reorders (0: never)
   /// ε of the velocity filter in the one-sided band (a deviation, regularize/boundary_filter.hpp): fluid
   /// particles with a free-surface fluid particle or a wall particle within re_large get
   /// u_i += ε (û_i − u_i), û_i the LSMPS-B order-2 fit over their neighbours j ≠ i (fluid, wall, dummy;
@@ -108,10 +114,11 @@ struct semi_implicit_params {
   }
 };
 
-/// The numbers of the quiet classic configuration (docs/solver.md "Quiet configuration", issue #4): p with the
-/// corrected pressure gradient (bmmr.md eq. 29, p̂ = p_i) and the one-sided-band velocity filter at ε = 0.1.
-/// Use it with a scene whose source is ppe::mixed (Tanaka eq. 25, α_p = 0.01): mpskit::quiet_defaults<D>.
-/// Measured: a tank at rest keeps RMS ≤ 5e-4, max ≤ 3e-3 √(gH) (defaults: 3–5e-2, 0.1).
+/// The numbers of the quiet classic configuration (docs/solver.md "Quiet configuration", issue #4): p with
+/// the corrected pressure gradient (bmmr.md eq. 29, p̂ = p_i) and the one-sided-band velocity filter at
+/// ε = 0.1. Use it with a scene whose source is ppe::mixed (Tanaka eq. 25, α_p = 0.01):
+/// mpskit::quiet_defaults<D>. Measured: a tank at rest keeps RMS ≤ 5e-4, max ≤ 3e-3 √(gH) (defaults: 3–5e-2,
+/// 0.1).
 template <int D>
 semi_implicit_params<D> quiet_params(semi_implicit_params<D> p = {}) {
   p.gradient = pressure_gradient::corrected;
@@ -121,21 +128,24 @@ semi_implicit_params<D> quiet_params(semi_implicit_params<D> p = {}) {
 
 /// Counters of a run (reported in summaries, kept in checkpoints).
 struct semi_implicit_counters {
-  long steps = 0;                 ///< steps taken
-  long ppe_iterations = 0;        ///< solver iterations, summed
-  long ppe_iterations_max = 0;    ///< largest per step
-  long pinned_components = 0;     ///< PPE parts with no Dirichlet row, pinned (summed over steps)
-  long isolated = 0;              ///< isolated particle-steps (excluded from operators)
-  long list_builds = 0;           ///< neighbour-list builds
-  long reorders = 0;              ///< cell reorders
-  long negative_clamped = 0;      ///< pressures clamped to zero (summed)
-  long ppe_fallbacks = 0;         ///< solves made by the fallback solver after the primary failed (ppe::with_fallback)
-  long ppe_breakdown_restarts = 0;  ///< solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
-  long ppe_cold_restarts = 0;  ///< warm-started solves repeated from 0 after not converging (solver_params::cold_restart)
+  long steps = 0;               ///< steps taken
+  long ppe_iterations = 0;      ///< solver iterations, summed
+  long ppe_iterations_max = 0;  ///< largest per step
+  long pinned_components = 0;   ///< PPE parts with no Dirichlet row, pinned (summed over steps)
+  long isolated = 0;            ///< isolated particle-steps (excluded from operators)
+  long list_builds = 0;         ///< neighbour-list builds
+  long reorders = 0;            ///< cell reorders
+  long negative_clamped = 0;    ///< pressures clamped to zero (summed)
+  /// solves made by the fallback solver after the primary failed (ppe::with_fallback)
+  long ppe_fallbacks = 0;
+  /// solves restarted from 0 after a Krylov breakdown (solver_params::breakdown_restart)
+  long ppe_breakdown_restarts = 0;
+  /// warm-started solves repeated from 0 after not converging (solver_params::cold_restart)
+  long ppe_cold_restarts = 0;
 };
 
-/// semi_implicit_counters in checkpoint order (io/simulation_checkpoint.hpp; a counter added later goes last, and the
-/// loader reads older files' shorter lists): the one list that saving and loading walk.
+/// semi_implicit_counters in checkpoint order (io/simulation_checkpoint.hpp; a counter added later goes last,
+/// and the loader reads older files' shorter lists): the one list that saving and loading walk.
 inline constexpr std::array<long semi_implicit_counters::*, 11> semi_implicit_counter_fields{
     &semi_implicit_counters::steps,         &semi_implicit_counters::ppe_iterations,
     &semi_implicit_counters::ppe_iterations_max, &semi_implicit_counters::pinned_components,
@@ -164,8 +174,10 @@ class semi_implicit {
   using shifting_type = typename Scene::shifting;
   using state_type = semi_implicit_state<D>;
   using params_type = semi_implicit_params<D>;
-  static_assert(ppe::SourceTerm<source_type>, "mpskit: Scene::source must model ppe::SourceTerm (ppe/concepts.hpp)");
-  static_assert(ppe::LinearSolver<solver_type>, "mpskit: Scene::solver must model ppe::LinearSolver (ppe/concepts.hpp)");
+  static_assert(ppe::SourceTerm<source_type>,
+                "mpskit: Scene::source must model ppe::SourceTerm (ppe/concepts.hpp)");
+  static_assert(ppe::LinearSolver<solver_type>,
+                "mpskit: Scene::solver must model ppe::LinearSolver (ppe/concepts.hpp)");
   static_assert(op_type::dim == D, "mpskit: Scene::op has another dimension than the scene");
 
   /// Takes the numbers and the initial particles (fluid, wall, dummy kinds); the policies are built
@@ -175,8 +187,8 @@ class semi_implicit {
                       make_policy<collision_type>(p), make_policy<shifting_type>(p)) {}
 
   /// Takes the numbers, the initial particles and every policy object.
-  semi_implicit(const params_type& p, state_type initial, const source_type& source, const surface_type& surface,
-                const collision_type& collision, const shifting_type& shifting)
+  semi_implicit(const params_type& p, state_type initial, const source_type& source,
+                const surface_type& surface, const collision_type& collision, const shifting_type& shifting)
       : p_(checked(p)),
         op_(op::mps_params{p.l0, p.re_small, p.re_large}),
         source_(source),
@@ -192,7 +204,8 @@ class semi_implicit {
     s_.validate();
     for (kind k : s_.kinds())
       if (k != kind::fluid && k != kind::wall && k != kind::dummy)
-        fail("semi_implicit: particle kind '", name(k), "' is not handled by this scheme (fluid, wall, dummy)");
+        fail("semi_implicit: particle kind '", name(k),
+             "' is not handled by this scheme (fluid, wall, dummy)");
   }
 
   const state_type& state() const { return s_; }          ///< particles
@@ -278,15 +291,17 @@ class semi_implicit {
         return;
       }
       vec<D> acc = p_.g;
-      if (!isolated_[static_cast<std::size_t>(i)] && p_.nu > 0.0) acc += p_.nu * op_.laplacian(x, nl_, i, u, active);
+      if (!isolated_[static_cast<std::size_t>(i)] && p_.nu > 0.0)
+        acc += p_.nu * op_.laplacian(x, nl_, i, u, active);
       ut_.col(i) = u.col(i) + dt * acc;
       xt_.col(i) = x.col(i) + dt * ut_.col(i);
     });
     // 5. Collision (policy).
     if constexpr (!std::is_same_v<collision_type, no_regularization>) {
-      collision_.apply(exec::par{}, xt_, ut_, nl_, active_filter(),
-                       [&](index_t j) { return kind_of(j) == kind::fluid && !isolated_[static_cast<std::size_t>(j)]; },
-                       dt);
+      collision_.apply(
+          exec::par{}, xt_, ut_, nl_, active_filter(),
+          [&](index_t j) { return kind_of(j) == kind::fluid && !isolated_[static_cast<std::size_t>(j)]; },
+          dt);
     }
     ensure_list(xt_);
 
@@ -297,7 +312,8 @@ class semi_implicit {
     });
     candidate_.assign(static_cast<std::size_t>(n), 0);
     for (index_t i = 0; i < n; ++i)
-      candidate_[static_cast<std::size_t>(i)] = kind_of(i) != kind::dummy && !isolated_[static_cast<std::size_t>(i)];
+      candidate_[static_cast<std::size_t>(i)] =
+          kind_of(i) != kind::dummy && !isolated_[static_cast<std::size_t>(i)];
     surface_.detect(exec::par{}, xt_, nl_, op_, active, std::span<const std::uint8_t>(candidate_), flags);
 
     // 7. PPE.
@@ -326,9 +342,10 @@ class semi_implicit {
     // 9. Shifting (policy).
     if constexpr (!std::is_same_v<shifting_type, no_regularization>) {
       ensure_list(s_.x());
-      shifting_.apply(exec::par{}, s_.x(), nl_, op_, active_filter(),
-                      [&](index_t j) { return kind_of(j) == kind::fluid && !isolated_[static_cast<std::size_t>(j)]; },
-                      std::span<const flag::type>(flags));
+      shifting_.apply(
+          exec::par{}, s_.x(), nl_, op_, active_filter(),
+          [&](index_t j) { return kind_of(j) == kind::fluid && !isolated_[static_cast<std::size_t>(j)]; },
+          std::span<const flag::type>(flags));
     }
     t_ += dt;
     ++c_.steps;
@@ -502,7 +519,8 @@ class semi_implicit {
       });
       outer[static_cast<std::size_t>(r + 1)] = cnt;
     });
-    for (index_t r = 0; r < m; ++r) outer[static_cast<std::size_t>(r + 1)] += outer[static_cast<std::size_t>(r)];
+    for (index_t r = 0; r < m; ++r)
+      outer[static_cast<std::size_t>(r + 1)] += outer[static_cast<std::size_t>(r)];
     A_.resize(m, m);
     A_.resizeNonZeros(outer.back());
     std::copy(outer.begin(), outer.end(), A_.outerIndexPtr());
@@ -590,8 +608,8 @@ class semi_implicit {
   /// Connected parts of the unknowns' graph with no Dirichlet row get p = 0 at their lowest-id
   /// particle (row and column zeroed, diagonal 1: the matrix stays symmetric). Counted.
   void pin_floating_parts() {
-    const auto parts = ppe::find_floating_parts(A_, dirichlet_, true,
-                                                [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
+    const auto parts = ppe::find_floating_parts(
+        A_, dirichlet_, true, [this](index_t r) { return id_of(rows_[static_cast<std::size_t>(r)]); });
     for (const ppe::floating_part& part : parts) {
       const index_t pin = part.pin;
       ++c_.pinned_components;
@@ -626,13 +644,14 @@ class semi_implicit {
       band_[static_cast<std::size_t>(i)] = b;
     });
     L_.setConstant(n, p_.l0);
-    const search::support<search::per_particle_radius> sup{{&L_, p_.re_large}, search::radius_rule::pair_mean};
+    const search::support<search::per_particle_radius> sup{{&L_, p_.re_large},
+                                                           search::radius_rule::pair_mean};
     op::lsmps_params op;
     op.re_ratio = p_.re_large;
     const auto participates = [&](index_t j) { return !isolated_[static_cast<std::size_t>(j)]; };
     const auto selected = [&](index_t i) { return band_[static_cast<std::size_t>(i)] != 0; };
-    regularize::boundary_filter(exec::par{}, x, L_, nl_, sup, op, participates, selected, n, p_.boundary_filter,
-                                s_.u(), s_.u(), filter_du_);
+    regularize::boundary_filter(exec::par{}, x, L_, nl_, sup, op, participates, selected, n,
+                                p_.boundary_filter, s_.u(), s_.u(), filter_du_);
   }
 
   void check_finite() const {

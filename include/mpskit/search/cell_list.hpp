@@ -40,7 +40,8 @@ class cell_list {
     double cells = 1.0;
     for (int a = 0; a < D; ++a) {
       const double extent = dom.periodic[a] ? dom.period(a) : hi[a] - lo[a];
-      const double na = dom.periodic[a] ? std::max(1.0, std::floor(extent / h)) : std::floor(extent / h) + 1.0;
+      const double na =
+          dom.periodic[a] ? std::max(1.0, std::floor(extent / h)) : std::floor(extent / h) + 1.0;
       cells *= na;
       if (cells > max_cells_per_particle * double(n) + double(1 << 22)) break;  // refused below
       dims_[a] = static_cast<int>(na);
@@ -57,8 +58,10 @@ class cell_list {
     });
     // Stable counting sort: deterministic, slots of a cell in ascending particle index.
     start_.assign(static_cast<std::size_t>(ncells_ + 1), 0);
-    for (index_t i = 0; i < n; ++i) ++start_[static_cast<std::size_t>(cell_of_[static_cast<std::size_t>(i)] + 1)];
-    for (index_t c = 0; c < ncells_; ++c) start_[static_cast<std::size_t>(c + 1)] += start_[static_cast<std::size_t>(c)];
+    for (index_t i = 0; i < n; ++i)
+      ++start_[static_cast<std::size_t>(cell_of_[static_cast<std::size_t>(i)] + 1)];
+    for (index_t c = 0; c < ncells_; ++c)
+      start_[static_cast<std::size_t>(c + 1)] += start_[static_cast<std::size_t>(c)];
     order_.resize(static_cast<std::size_t>(n));
     slot_of_.resize(static_cast<std::size_t>(n));
     std::vector<index_t> fill(start_.begin(), start_.end() - 1);
@@ -100,15 +103,21 @@ class cell_list {
     return c;
   }
 
-  index_t cells() const { return ncells_; }                              ///< number of cells
-  const std::array<int, D>& dims() const { return dims_; }               ///< cells per axis
-  const vec<D>& cell_size() const { return h_; }                         ///< cell edge per axis
-  const vec<D>& origin() const { return lo_; }                           ///< lower corner of the grid
-  const domain<D>& dom() const { return dom_; }                          ///< periodic axes
-  index_t cell_begin(index_t c) const { return start_[static_cast<std::size_t>(c)]; }      ///< first slot of cell c
-  index_t cell_end(index_t c) const { return start_[static_cast<std::size_t>(c + 1)]; }    ///< one past its last slot
-  index_t cell_of(index_t i) const { return cell_of_[static_cast<std::size_t>(i)]; }       ///< cell of particle i
-  index_t slot_of(index_t i) const { return slot_of_[static_cast<std::size_t>(i)]; }       ///< sorted slot of particle i
+  index_t cells() const { return ncells_; }                 ///< number of cells
+  const std::array<int, D>& dims() const { return dims_; }  ///< cells per axis
+  const vec<D>& cell_size() const { return h_; }            ///< cell edge per axis
+  const vec<D>& origin() const { return lo_; }              ///< lower corner of the grid
+  const domain<D>& dom() const { return dom_; }             ///< periodic axes
+  index_t cell_begin(index_t c) const {
+    return start_[static_cast<std::size_t>(c)];
+  }  ///< first slot of cell c
+  index_t cell_end(index_t c) const {
+    return start_[static_cast<std::size_t>(c + 1)];
+  }  ///< one past its last slot
+  index_t cell_of(index_t i) const { return cell_of_[static_cast<std::size_t>(i)]; }  ///< cell of particle i
+  index_t slot_of(index_t i) const {
+    return slot_of_[static_cast<std::size_t>(i)];
+  }  ///< sorted slot of particle i
   /// Sorted slot → particle index: the permutation that puts a state in cell order.
   const std::vector<index_t>& order() const { return order_; }
 

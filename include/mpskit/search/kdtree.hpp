@@ -29,7 +29,8 @@ class kdtree {
     if (leaf_size < 1) fail("kdtree: leaf_size = ", leaf_size, ": must be >= 1");
     for (index_t i = 0; i < x.cols(); ++i)
       if (!x.col(i).allFinite()) fail("kdtree: point ", i, " is not finite (NaN or inf)");
-    tree_ = std::make_unique<tree_t>(D, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(static_cast<size_t>(leaf_size)));
+    tree_ = std::make_unique<tree_t>(
+        D, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(static_cast<size_t>(leaf_size)));
     tree_->buildIndex();
   }
 
@@ -64,7 +65,8 @@ class kdtree {
     template <class BBox>
     bool kdtree_get_bbox(BBox&) const { return false; }
   };
-  using tree_t = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, adaptor>, adaptor, D, index_t>;
+  using tree_t =
+      nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, adaptor>, adaptor, D, index_t>;
   adaptor adaptor_;
   std::unique_ptr<tree_t> tree_;
 };

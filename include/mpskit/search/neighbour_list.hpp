@@ -66,12 +66,14 @@ class neighbour_list {
     double rmin = std::numeric_limits<double>::infinity(), rmax = 0.0;
     if constexpr (R::uniform) {
       const double r0 = radius(0);
-      if (!(std::isfinite(r0) && r0 > 0.0)) fail("neighbour_list: radius R = ", r0, ": must be a finite number > 0");
+      if (!(std::isfinite(r0) && r0 > 0.0))
+        fail("neighbour_list: radius R = ", r0, ": must be a finite number > 0");
       rmin = rmax = r0 * grow;
     } else {
       rb_.resize(static_cast<std::size_t>(n));
       if (radius.L && radius.L->size() != n)
-        fail("neighbour_list: the per-particle length array has ", radius.L->size(), " entries for ", n, " particles");
+        fail("neighbour_list: the per-particle length array has ", radius.L->size(), " entries for ", n,
+             " particles");
       for (index_t i = 0; i < n; ++i) {
         const double ri = radius(i);
         if (!(std::isfinite(ri) && ri > 0.0))
@@ -83,8 +85,8 @@ class neighbour_list {
     }
     for (int a = 0; a < D; ++a)
       if (dom_.periodic[a] && !(2.0 * rmax < dom_.period(a)))
-        fail("neighbour_list: periodic axis ", a, " has period ", dom_.period(a), " but the build radius is ", rmax,
-             ": the minimum image needs period > 2 R");
+        fail("neighbour_list: periodic axis ", a, " has period ", dom_.period(a), " but the build radius is ",
+             rmax, ": the minimum image needs period > 2 R");
 
     ur2_ = rmax * rmax;
     cells_.build(e, x, rmin, dom_);
@@ -126,7 +128,8 @@ class neighbour_list {
         offsets_[static_cast<std::size_t>(i + 1)] = static_cast<index_t>(J.size() - before);
       }
     });
-    for (index_t i = 0; i < n; ++i) offsets_[static_cast<std::size_t>(i + 1)] += offsets_[static_cast<std::size_t>(i)];
+    for (index_t i = 0; i < n; ++i)
+      offsets_[static_cast<std::size_t>(i + 1)] += offsets_[static_cast<std::size_t>(i)];
     nbr_.resize(static_cast<std::size_t>(offsets_.back()));
     shift_.resize(periodic_ ? nbr_.size() : 0);
     for_each_particle(e, nb, [&](index_t b) {
@@ -308,7 +311,8 @@ class neighbour_list {
 
   /// Appends row i: scans x-rows of cells as contiguous slot ranges.
   template <RadiusModel R, class Visible>
-  void scan_row(index_t i, const Visible& visible, std::vector<neighbour_t>& J, std::vector<std::uint8_t>& S) const {
+  void scan_row(index_t i, const Visible& visible, std::vector<neighbour_t>& J,
+                std::vector<std::uint8_t>& S) const {
     const index_t si = cells_.slot_of(i);
     const vec<D> xi = xs_.col(si);
     const std::array<int, D> c = cells_.coords(cells_.cell_of(i));

@@ -177,7 +177,9 @@ bool wall_blocks_cone(const geometry::polygon_set<D>& walls, const vec<D>& xi, d
   e1 -= axis.dot(e1) * axis;
   e1.normalize();
   const double c1 = std::cos(p.theta1), s1 = std::sin(p.theta1);
-  const auto solid = [&](const vec<D>& dir) { return walls.first_crossing(xi, vec<D>(xi + reach * dir)).has_value(); };
+  const auto solid = [&](const vec<D>& dir) {
+    return walls.first_crossing(xi, vec<D>(xi + reach * dir)).has_value();
+  };
   bool blocked = solid(axis) && solid(vec<D>(c1 * axis + s1 * e1)) && solid(vec<D>(c1 * axis - s1 * e1));
   if constexpr (D == 3) {
     const vec<D> e2(axis[1] * e1[2] - axis[2] * e1[1], axis[2] * e1[0] - axis[0] * e1[2],
@@ -187,12 +189,12 @@ bool wall_blocks_cone(const geometry::polygon_set<D>& walls, const vec<D>& xi, d
   return blocked;
 }
 
-/// The cone axis slid along the walls (a deviation, with wall_blocks_cone): from the unit axis, up to D times,
-/// the ray of length α_θ L_i is cast and, where it enters a wall, the axis loses its component into that
-/// wall. Returns the slid unit axis when the ray is then open, or nullopt (solid, or nothing left). A particle
-/// in a vertical edge of a box at the free surface has its normal tilted toward the edge (the fluid on the
-/// other side is not mirrored), so its cone is solid although the surface is right above it: measured, the
-/// 4 such particles of a 3D box were left unflagged and grew a vertical mode 2.2× per step.
+/// The cone axis slid along the walls (a deviation, with wall_blocks_cone): from the unit axis, up to D
+/// times, the ray of length α_θ L_i is cast and, where it enters a wall, the axis loses its component into
+/// that wall. Returns the slid unit axis when the ray is then open, or nullopt (solid, or nothing left). A
+/// particle in a vertical edge of a box at the free surface has its normal tilted toward the edge (the fluid
+/// on the other side is not mirrored), so its cone is solid although the surface is right above it: measured,
+/// the 4 such particles of a 3D box were left unflagged and grew a vertical mode 2.2× per step.
 template <int D>
 std::optional<vec<D>> wall_slid_axis(const geometry::polygon_set<D>& walls, const vec<D>& xi, double Li,
                                      const vec<D>& axis, const geometric_params& p) {

@@ -64,8 +64,8 @@ index_t guard_crossings(E e, const points<D>& x_old, points<D>& x_new, points<D>
   p.validate();
   if (n < 0) fail("wall::guard_crossings: n = ", n, ", accepted range [0, inf)");
   if (x_old.cols() < n || x_new.cols() < n || u.cols() < n || L.size() < n)
-    fail("wall::guard_crossings: n = ", n, " particles but x_old has ", x_old.cols(), ", x_new ", x_new.cols(),
-         ", u ", u.cols(), " columns and L ", L.size(), " entries");
+    fail("wall::guard_crossings: n = ", n, " particles but x_old has ", x_old.cols(), ", x_new ",
+         x_new.cols(), ", u ", u.cols(), " columns and L ", L.size(), " entries");
   if (flags && static_cast<index_t>(flags->size()) < n)
     fail("wall::guard_crossings: flags has ", flags->size(), " entries for n = ", n, " particles");
   if (poses && static_cast<index_t>(poses->size()) != sets.size())

@@ -139,9 +139,9 @@ void copies_of(index_t i, const vec<D>& x, double L, const set_view<D>& sets, co
   }
   // 2. Edge/vertex points: kept only if no element through that point has a closer point or a face
   //    point at the same distance (otherwise the point is the end of a face whose own foot is nearer
-  //    or equal: a floor split into segments, the diagonal of a quad). Kept points are grouped by position: one copy per point, normal
-  //    (x − q)/|x − q|; the extra elements are convex duplicates (counted) when the group's normals span
-  //    the merge angle, else the same smooth wall.
+  //    or equal: a floor split into segments, the diagonal of a quad). Kept points are grouped by position:
+  //    one copy per point, normal (x − q)/|x − q|; the extra elements are convex duplicates (counted) when
+  //    the group's normals span the merge angle, else the same smooth wall.
   const std::size_t n_faces = keep.size();
   for (std::size_t a = 0; a < cand.size(); ++a) {
     const candidate<D>& c = cand[a];
@@ -152,7 +152,8 @@ void copies_of(index_t i, const vec<D>& x, double L, const set_view<D>& sets, co
       if (b == a || cand[b].set != c.set) continue;
       // a closer element through q, or a face through q at the same distance (x above the shared
       // diagonal of two triangles: the face's own foot is the copy)
-      const bool face_tie = cand[b].c.kind == geometry::feature_kind::face && cand[b].c.distance <= c.c.distance + tol;
+      const bool face_tie =
+          cand[b].c.kind == geometry::feature_kind::face && cand[b].c.distance <= c.c.distance + tol;
       if (!(cand[b].c.distance < c.c.distance - tol) && !face_tie) continue;
       if (s.closest_on(cand[b].c.element, c.c.point).distance <= tol) genuine = false;
     }
@@ -317,10 +318,11 @@ imaginary_report<D> make_imaginary(const points<D>& x, const Eigen::VectorXd& L,
 /// Writes the copies into the ghost range: x and L are resized to n_real + copies (the first n_real
 /// columns/entries are kept) and ghost g = n_real + k takes copy k's position and diameter.
 template <int D>
-void write_ghosts(const std::vector<imaginary_copy<D>>& copies, index_t n_real, points<D>& x, Eigen::VectorXd& L) {
+void write_ghosts(const std::vector<imaginary_copy<D>>& copies, index_t n_real, points<D>& x,
+                  Eigen::VectorXd& L) {
   if (n_real < 0 || n_real > x.cols() || n_real > L.size())
-    fail("wall::write_ghosts: n_real = ", n_real, " exceeds the ", x.cols(), " columns of x or the ", L.size(),
-         " entries of L");
+    fail("wall::write_ghosts: n_real = ", n_real, " exceeds the ", x.cols(), " columns of x or the ",
+         L.size(), " entries of L");
   const index_t n = n_real + static_cast<index_t>(copies.size());
   x.conservativeResize(Eigen::NoChange, n);
   L.conservativeResize(n);

@@ -64,8 +64,8 @@ particle_block<D> polygon_walls(const geometry::polygon_set<D>& walls, const vec
 
 /// Fluid particles at the lattice points with signed distance > 0 (fluid side) inside [lo, hi].
 template <int D>
-particle_block<D> polygon_fill(const geometry::polygon_set<D>& walls, const vec<D>& lo, const vec<D>& hi, double l0,
-                               const vec<D>& origin = vec<D>::Zero(), kind k = kind::fluid) {
+particle_block<D> polygon_fill(const geometry::polygon_set<D>& walls, const vec<D>& lo, const vec<D>& hi,
+                               double l0, const vec<D>& origin = vec<D>::Zero(), kind k = kind::fluid) {
   particle_block<D> b;
   detail::for_each_lattice_point<D>(lo, hi, l0, origin, [&](const vec<D>& p) {
     if (walls.signed_distance(p) > 0.0) {

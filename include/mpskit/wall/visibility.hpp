@@ -34,15 +34,16 @@ struct wall_visibility {
   index_t n_real = 0;            ///< number of real particles (columns before the ghost range)
   const std::vector<imaginary_copy<D>>* copies = nullptr;  ///< ghost k = column n_real + k (normals, L′)
   const search::domain<D>* dom = nullptr;  ///< periodic axes (minimum image of x_j − x_i), optional
-  double pull = 1e-6;                      ///< a copy's end is moved pull·L′ along its normal (range (0, 0.01])
-  index_t other_ghosts = 0;  ///< ghosts after the copies, tested at their own positions (pressure-boundary particles)
-  std::vector<double> clearance{};          ///< lower bounds of the wall distance per column (prepare())
+  double pull = 1e-6;  ///< a copy's end is moved pull·L′ along its normal (range (0, 0.01])
+  /// ghosts after the copies, tested at their own positions (pressure-boundary particles)
+  index_t other_ghosts = 0;
+  std::vector<double> clearance{};  ///< lower bounds of the wall distance per column (prepare())
   /// Convex shortcut (prepare(), polygon_set only): when the set is convex (polygon_set::convex(): the fluid
   /// side K = ∩ {y : (y − v_e)·n_e ≥ 0} holds every element on its boundary), a segment whose ends are both
   /// strictly inside K touches no element. inside[c] != 0 marks such columns (for a copy: its pulled end).
   /// Empty when the set is not convex (or has more than convex_max_elements elements, where the per-column
-  /// half-space test would cost more than it saves): the segment test decides. Same answers as the test, cheaper (tanks,
-  /// ducts: most pairs are within reach of a wall, so the clearances do not prune them).
+  /// half-space test would cost more than it saves): the segment test decides. Same answers as the test,
+  /// cheaper (tanks, ducts: most pairs are within reach of a wall, so the clearances do not prune them).
   std::vector<unsigned char> inside{};
   static constexpr index_t convex_max_elements = 256;  ///< larger sets are not checked for convexity
 
@@ -55,11 +56,14 @@ struct wall_visibility {
     if (n_real < 0 || n_real > x->cols())
       fail("wall::wall_visibility: n_real = ", n_real, ", accepted range [0, ", x->cols(), "]");
     const index_t ghosts = x->cols() - n_real;
-    if (ghosts > 0 && (other_ghosts < 0 || (copies ? static_cast<index_t>(copies->size()) : 0) + other_ghosts != ghosts))
+    if (ghosts > 0 &&
+        (other_ghosts < 0 || (copies ? static_cast<index_t>(copies->size()) : 0) + other_ghosts != ghosts))
       fail("wall::wall_visibility: ", ghosts, " ghost columns but ", copies ? copies->size() : 0,
            " imaginary copies and ", other_ghosts, " other ghosts (they must describe the ghost range)");
-    if (!(pull > 0.0 && pull <= 0.01)) fail("wall::wall_visibility: pull = ", pull, ", accepted range (0, 0.01]");
-    if (!(max_distance >= 0.0)) fail("wall::wall_visibility: max_distance = ", max_distance, ", accepted range [0, inf]");
+    if (!(pull > 0.0 && pull <= 0.01))
+      fail("wall::wall_visibility: pull = ", pull, ", accepted range (0, 0.01]");
+    if (!(max_distance >= 0.0))
+      fail("wall::wall_visibility: max_distance = ", max_distance, ", accepted range [0, inf]");
     clearance.assign(static_cast<std::size_t>(x->cols()), 0.0);
     for_each_particle(e, n_real, [&](index_t i) {
       const vec<D> xi = x->col(i);
@@ -83,7 +87,8 @@ struct wall_visibility {
       for_each_particle(e, x->cols(), [&](index_t c) {
         const vec<D> y = end_point(c, x->col(c));
         bool in = y.allFinite();
-        for (std::size_t f = 0; in && f < planes.size(); ++f) in = (y - planes[f].first).dot(planes[f].second) > tol;
+        for (std::size_t f = 0; in && f < planes.size(); ++f)
+          in = (y - planes[f].first).dot(planes[f].second) > tol;
         inside[static_cast<std::size_t>(c)] = in ? 1 : 0;
       });
     }
@@ -97,14 +102,15 @@ struct wall_visibility {
     if (dom) dom->minimum_image(d);
     const bool shifted = d != raw;
     // Clearance shortcut (unshifted pairs only: the clearances belong to the particles' own positions,
-    // not to their periodic images): a segment touching a wall at p has r = |x_i − p| + |p − x_j| ≥ d_i + d_j.
+    // not to their periodic images): a segment touching a wall at p has r = |x_i − p| + |p − x_j| ≥ d_i
+    // + d_j.
     if (!shifted && clearance.size() == static_cast<std::size_t>(x->cols())) {
       const double c = clearance[static_cast<std::size_t>(i)] + clearance[static_cast<std::size_t>(j)];
       if (c * c > d.squaredNorm()) return true;
     }
     // Convex shortcut (unshifted pairs only, as above): both ends strictly inside the convex fluid side.
-    if (!shifted && inside.size() == static_cast<std::size_t>(x->cols()) && inside[static_cast<std::size_t>(i)] &&
-        inside[static_cast<std::size_t>(j)])
+    if (!shifted && inside.size() == static_cast<std::size_t>(x->cols()) &&
+        inside[static_cast<std::size_t>(i)] && inside[static_cast<std::size_t>(j)])
       return true;
     const vec<D> a = end_point(i, x->col(i));
     const vec<D> b = end_point(j, (x->col(i) + d).eval());

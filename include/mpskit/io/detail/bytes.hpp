@@ -152,11 +152,11 @@ inline std::string read_file(const std::filesystem::path& path, std::string_view
   return s;
 }
 
-/// Writes the concatenation of `parts` to `path` atomically: a temporary file beside it ("<name>.tmp-<pid>") is written,
-/// flushed (and fsync'ed on POSIX), then renamed over `path`. Readers see the old file or the new one,
-/// never a part. Throws mpskit::error naming the path and the reason.
-inline void write_file_atomic(const std::filesystem::path& path, std::initializer_list<std::string_view> parts,
-                              std::string_view what) {
+/// Writes the concatenation of `parts` to `path` atomically: a temporary file beside it ("<name>.tmp-<pid>")
+/// is written, flushed (and fsync'ed on POSIX), then renamed over `path`. Readers see the old file or the new
+/// one, never a part. Throws mpskit::error naming the path and the reason.
+inline void write_file_atomic(const std::filesystem::path& path,
+                              std::initializer_list<std::string_view> parts, std::string_view what) {
   if (path.empty()) fail(what, ": empty output path");
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   std::error_code ec;
@@ -170,7 +170,9 @@ inline void write_file_atomic(const std::filesystem::path& path, std::initialize
   std::filesystem::path tmp = path;
   tmp += ".tmp-" + std::to_string(pid);
   std::FILE* f = std::fopen(tmp.string().c_str(), "wb");
-  if (!f) fail(what, ": cannot write '", path.string(), "': cannot create '", tmp.string(), "' (", std::strerror(errno), ")");
+  if (!f)
+    fail(what, ": cannot write '", path.string(), "': cannot create '", tmp.string(), "' (",
+         std::strerror(errno), ")");
   bool ok = true;
   for (const std::string_view content : parts)
     ok = ok && (content.empty() || std::fwrite(content.data(), 1, content.size(), f) == content.size());
@@ -181,7 +183,8 @@ inline void write_file_atomic(const std::filesystem::path& path, std::initialize
   ok = std::fclose(f) == 0 && ok;
   if (!ok) {
     std::filesystem::remove(tmp, ec);
-    fail(what, ": writing '", tmp.string(), "' failed (disk full or I/O error); '", path.string(), "' is unchanged");
+    fail(what, ": writing '", tmp.string(), "' failed (disk full or I/O error); '", path.string(),
+         "' is unchanged");
   }
   std::filesystem::rename(tmp, path, ec);
   if (ec) {

@@ -55,7 +55,8 @@ inline int vtk_type_size(std::string_view t) {
 /// Field units with the dimension filled in: "m^D" becomes "m^2" or "m^3".
 inline std::string resolve_units(std::string_view units, int dim) {
   std::string s(units);
-  for (std::size_t p = s.find("^D"); p != std::string::npos; p = s.find("^D", p + 2)) s[p + 1] = char('0' + dim);
+  for (std::size_t p = s.find("^D"); p != std::string::npos; p = s.find("^D", p + 2))
+    s[p + 1] = char('0' + dim);
   return s;
 }
 

@@ -129,7 +129,8 @@ class xml_parser {
       if (p_ >= s_.size() || s_[p_] != '=') error("attribute '" + key + "' of <" + n.name + "> has no value");
       ++p_;
       skip_space();
-      if (p_ >= s_.size() || (s_[p_] != '"' && s_[p_] != '\'')) error("attribute '" + key + "' is not quoted");
+      if (p_ >= s_.size() || (s_[p_] != '"' && s_[p_] != '\''))
+        error("attribute '" + key + "' is not quoted");
       const char q = s_[p_++];
       const std::size_t e = s_.find(q, p_);
       if (e == npos_) error("unterminated value of attribute '" + key + "'");

@@ -1,9 +1,10 @@
 #pragma once
 /// \file scheme/detail/component_fits.hpp
 /// \brief ∇ and ∇² of a vector field's D components at one particle: one neighbour sweep where the operator
-/// offers it (op::lsmps_a::gradients / laplacians), else D scalar calls. Both give the same numbers to the bit
-/// (the fused sweep adds the same terms in the same order), so the choice is speed only: on the obstacle dam break
-/// the D sweeps of ∇u′, ∇²u and the shifting's ∇u were 11 % of the run (docs/performance.md "Fused fits").
+/// offers it (op::lsmps_a::gradients / laplacians), else D scalar calls. Both give the same numbers to the
+/// bit (the fused sweep adds the same terms in the same order), so the choice is speed only: on the obstacle
+/// dam break the D sweeps of ∇u′, ∇²u and the shifting's ∇u were 11 % of the run (docs/performance.md "Fused
+/// fits").
 #include <array>
 #include <cstddef>
 

@@ -43,17 +43,15 @@ struct is_split_merge<resolution::split_merge<T, P>> : std::true_type {};
 
 /// Runs split/merge R on the stepper's data at the end of a step. x_k: the real particles' positions at the
 /// start of the step (where the operator's moments were computed), so ⟨∇u⟩ of eq. 70 is evaluated with the
-/// same positions as the moments; copies keep theirs. The state's flags (or `flags`, when given) carry the step's
-/// surface/isolated bits.
+/// same positions as the moments; copies keep theirs. The state's flags (or `flags`, when given) carry the
+/// step's surface/isolated bits.
 template <class R, int D, class Fields, class Op, class Participates>
-resolution::split_merge_report<D> run_resolution_stage(particle_state<D, Fields>& s, const search::neighbour_list<D>& nl,
-                                                       const Eigen::VectorXd& L, const points<D>& normals,
-                                                       const geometry::polygon_set<D>* walls, const points<D>& x_k,
-                                                       const Op& op, const Participates& participates,
-                                                       const resolution::split_merge_params<D>& p,
-                                                       resolution::conservation_ledger<D>& ledger,
-                                                       const std::vector<flag::type>* flags = nullptr,
-                                                       double wall_reach = 1.0) {
+resolution::split_merge_report<D> run_resolution_stage(
+    particle_state<D, Fields>& s, const search::neighbour_list<D>& nl, const Eigen::VectorXd& L,
+    const points<D>& normals, const geometry::polygon_set<D>* walls, const points<D>& x_k, const Op& op,
+    const Participates& participates, const resolution::split_merge_params<D>& p,
+    resolution::conservation_ledger<D>& ledger, const std::vector<flag::type>* flags = nullptr,
+    double wall_reach = 1.0) {
   const index_t n = s.n_real();
   points<D> xg;  // positions of the moments (built on the first split only)
   std::array<Eigen::VectorXd, D> comp;

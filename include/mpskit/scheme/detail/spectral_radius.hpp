@@ -12,7 +12,8 @@
 
 namespace mpskit::scheme::detail {
 
-/// Largest |root| of λ² − s λ + q (real coefficients): the larger real root modulus, or √q for a complex pair.
+/// Largest |root| of λ² − s λ + q (real coefficients): the larger real root modulus, or √q for a complex
+/// pair.
 inline double quadratic_root_radius(double s, double q) {
   const double h = 0.5 * s, disc = h * h - q;
   if (disc >= 0.0) return std::abs(h) + std::sqrt(disc);
