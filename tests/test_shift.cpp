@@ -604,9 +604,9 @@ TEST_SUITE("tanaka_shift") {
   TEST_CASE(
       "regularize: limit_to_neighbour_range keeps eq. 91 exact inside the data and stops its extrapolation") {
     // (1) The linear field of the case above on a jittered lattice, every interior particle shifted by at
-    //     most
-    // α_S L = 0.01 L: x_i + δx_i lies well inside its neighbours' hull, so A (x_i + δx_i) lies inside the
-    // range of their values and the limiter leaves eq. 91 exact (rounding: 1e-15) and counts nothing there.
+    // most α_S L = 0.01 L: x_i + δx_i lies well inside its neighbours' hull, so A (x_i + δx_i) lies inside
+    // the range of their values and the limiter leaves eq. 91 exact (rounding: 1e-15) and counts nothing
+    // there.
     const shifted_linear s(3);
     MESSAGE("seed = " << s.seed << " (MPSKIT_SEED)");
     const shift_case<2>& c = s.c;

@@ -1308,8 +1308,7 @@ class lsmps_semi_implicit {
   }
 
   /// 8. The PPE: solve_pressure_with_set, then, with lsmps_params::own_loop, the own-loop guard's checks,
-  ///    each
-  /// followed by a new solve when it marked a particle.
+  /// each followed by a new solve when it marked a particle.
   void solve_pressure(double dt) {
     if (p_.own_loop.enabled) {
       const std::size_t n = static_cast<std::size_t>(s_.n_real());
