@@ -94,12 +94,16 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r,
       << " Pa, guard activations " << r.guarded << ", closest pair " << r.min_pair_ratio
       << " L, largest speed " << r.u_max << " m/s";
   // Where the PPE's time goes (docs/performance.md "Through the far-wall impact"): solves per step (the
-  // active set and the own-loop guard repeat them), iterations per solve, and incomplete factorisations
-  // (ILU(0)) per step.
-  if (r.ppe_solves > 0 && r.steps > 0)
+  // active set and the own-loop guard repeat them), iterations per solve (all, the steps' first solves, the
+  // repeats), and incomplete factorisations (ILU(0)) per step.
+  if (r.ppe_solves > r.ppe_repeat_solves && r.steps > 0) {
+    const long first = r.ppe_solves - r.ppe_repeat_solves;
     log << ", PPE solves per step " << double(r.ppe_solves) / double(r.steps) << ", iterations per solve "
-        << double(r.ppe_iterations) / double(r.ppe_solves) << ", factorisations per step "
-        << double(r.ppe_factorisations) / double(r.steps);
+        << double(r.ppe_iterations) / double(r.ppe_solves) << " (first solves "
+        << double(r.ppe_iterations - r.ppe_repeat_iterations) / double(first) << ", repeats "
+        << (r.ppe_repeat_solves > 0 ? double(r.ppe_repeat_iterations) / double(r.ppe_repeat_solves) : 0.0)
+        << "), factorisations per step " << double(r.ppe_factorisations) / double(r.steps);
+  }
   log << "\n";
   bench::run_outcome out;
   out.particles = r.particles_end;

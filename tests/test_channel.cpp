@@ -1120,7 +1120,7 @@ TEST_SUITE("restart") {
       return tmp / name;
     };
     std::vector<std::int64_t> v = all.get_int64s("lsmps.counters");
-    REQUIRE(v.size() == 41);
+    REQUIRE(v.size() == 43);
     v[24] = 7;   // filter_amplifying
     v[25] = 9;   // filter_tapered
     v[26] = 11;  // own_loop_checked
@@ -1137,12 +1137,16 @@ TEST_SUITE("restart") {
     v[37] = 22;  // active_set_released
     v[38] = 23;  // ppe_cold_restarts
     v[39] = 24;  // ppe_solves
-    v[40] = 25;  // ppe_factorisations, the last value
+    v[40] = 25;  // ppe_factorisations
+    v[41] = 26;  // ppe_repeat_solves
+    v[42] = 27;  // ppe_repeat_iterations, the last value
     const auto head = [&](std::size_t k) {
       return std::vector<std::int64_t>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k));
     };
     md_sim b(su.params, su.initial, &su.walls, &*su.boundary);
-    io::load_simulation(write("41.mpscp", v, {0.5, 0.25, 0.125}), b);
+    io::load_simulation(write("43.mpscp", v, {0.5, 0.25, 0.125}), b);
+    CHECK(b.counters().ppe_repeat_solves == 26);
+    CHECK(b.counters().ppe_repeat_iterations == 27);
     CHECK(b.counters().ppe_cold_restarts == 23);
     CHECK(b.counters().ppe_solves == 24);
     CHECK(b.counters().ppe_factorisations == 25);
@@ -1167,6 +1171,11 @@ TEST_SUITE("restart") {
     CHECK(b.counters().shift_coincident == 20);
     CHECK(b.counters().steps == 1);
     CHECK(b.counters().copies == a.counters().copies);
+    md_sim b41(su.params, su.initial, &su.walls, &*su.boundary);  // before the repeats' ledger: 41 counters
+    io::load_simulation(write("41.mpscp", head(41), {0.5, 0.25, 0.125}), b41);
+    CHECK(b41.counters().ppe_factorisations == 25);
+    CHECK(b41.counters().ppe_repeat_solves == 0);
+    CHECK(b41.counters().ppe_repeat_iterations == 0);
     md_sim b39(su.params, su.initial, &su.walls, &*su.boundary);  // before the solve ledger: 39 counters
     io::load_simulation(write("39.mpscp", head(39), {0.5, 0.25, 0.125}), b39);
     CHECK(b39.counters().ppe_cold_restarts == 23);
@@ -1226,12 +1235,12 @@ TEST_SUITE("restart") {
     CHECK(d.time() == a.time());
     md_sim e(su.params, su.initial, &su.walls, &*su.boundary);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("23.mpscp", head(23)), e),
-                         doctest::Contains("'lsmps.counters' holds 23 values, expected 41"), mpskit::error);
+                         doctest::Contains("'lsmps.counters' holds 23 values, expected 43"), mpskit::error);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("4v.mpscp", v, {0.5, 0.25, 0.125, 1.0}), e),
                          doctest::Contains("'lsmps.boundary_volumes' holds 4 values, expected 3"),
                          mpskit::error);
     v.push_back(0);
-    CHECK_THROWS_WITH_AS(io::load_simulation(write("42.mpscp", v), e),
-                         doctest::Contains("'lsmps.counters' holds 42 values, expected 41"), mpskit::error);
+    CHECK_THROWS_WITH_AS(io::load_simulation(write("44.mpscp", v), e),
+                         doctest::Contains("'lsmps.counters' holds 44 values, expected 43"), mpskit::error);
   }
 }

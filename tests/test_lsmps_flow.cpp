@@ -1528,7 +1528,9 @@ TEST_SUITE("dam_break_lsmps") {
     // active set's and the own-loop guard's repeats (every system here has unknowns), whatever the solver;
     // Jacobi factorises nothing; ILU(0) with the default lag factorises at least every ilut_reuse-th solve
     // and at most at every solve and lagged retry (measured: 348 factorisations for 351 solves over 177
-    // steps); factorised at every solve (ilut_reuse = 1: no lag, no retry), exactly once per solve.
+    // steps); factorised at every solve (ilut_reuse = 1: no lag, no retry), exactly once per solve. The
+    // repeated solves (ppe_repeat_solves, ppe_repeat_iterations) are those after each step's first: the
+    // repeats made, with part of the iterations (so the first solves are one per step).
     scheme::lsmps_params<2> fresh_p = p;
     fresh_p.solver.ilut_reuse = 1;
     const auto fresh = cases::run_tanaka_dam_break<cases::tanaka_ilu0_scene>(c, 1.0, fresh_p);
@@ -1539,6 +1541,10 @@ TEST_SUITE("dam_break_lsmps") {
     for (const auto* r : {&jacobi, &ilu0, &fresh}) {
       CHECK(r->ppe_solves == r->steps + r->active_set_solves + r->own_loop_solves);
       CHECK(r->active_set_solves + r->own_loop_solves > 0);  // the repeats are exercised
+      CHECK(r->ppe_repeat_solves == r->active_set_solves + r->own_loop_solves);
+      CHECK(r->ppe_solves - r->ppe_repeat_solves == r->steps);
+      CHECK(r->ppe_repeat_iterations > 0);
+      CHECK(r->ppe_repeat_iterations < r->ppe_iterations);
     }
     CHECK(jacobi.ppe_factorisations == 0);
     CHECK(p.solver.ilut_reuse * ilu0.ppe_factorisations >= ilu0.ppe_solves);

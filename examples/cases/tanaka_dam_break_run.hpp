@@ -36,6 +36,9 @@ struct tanaka_run_counts {
   /// lagged-factor solves repeated with fresh factors (lsmps_counters::ppe_lagged_retries,
   /// solver_params::ilut_reuse).
   long ppe_solves = 0, ppe_factorisations = 0, ppe_lagged_retries = 0;
+  /// The solves after each step's first (the active set's and the own-loop guard's repeats) and their
+  /// iterations (lsmps_counters::ppe_repeat_solves, ppe_repeat_iterations).
+  long ppe_repeat_solves = 0, ppe_repeat_iterations = 0;
   /// Copies them from the scheme's counters (scheme::lsmps_counters).
   template <class Counters>
   void read_counts(const Counters& k) {
@@ -49,6 +52,8 @@ struct tanaka_run_counts {
     ppe_solves = k.ppe_solves;
     ppe_factorisations = k.ppe_factorisations;
     ppe_lagged_retries = k.ppe_lagged_retries;
+    ppe_repeat_solves = k.ppe_repeat_solves;
+    ppe_repeat_iterations = k.ppe_repeat_iterations;
   }
 };
 

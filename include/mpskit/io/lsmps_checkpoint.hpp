@@ -6,8 +6,8 @@
 ///
 /// Sections (docs/run.md, "Checkpoint and restart"):
 ///   `lsmps.time`                doubles {t, Δt of the last step}      (s), bitwise
-///   `lsmps.counters`            int64 ×41, lsmps_counters' integer counters in the order of
-///                               detail::lsmps_counter_values (older files hold 24 to 40, the missing ones
+///   `lsmps.counters`            int64 ×43, lsmps_counters' integer counters in the order of
+///                               detail::lsmps_counter_values (older files hold 24 to 42, the missing ones
 ///                               read as 0: see lsmps_counter_count_min)
 ///   `lsmps.boundary_volumes`    doubles {inflow_volume, outflow_volume, left_domain_volume} (older files:
 ///                               the first two, the third read as 0)
@@ -52,7 +52,8 @@ inline constexpr std::size_t lsmps_counter_count = scheme::lsmps_counter_fields.
 /// shift_velocity_clipped (31, 2026-12-02), ppe_breakdown_restarts (32, 2026-12-03), collisions (33,
 /// 2026-12-03) or collision_coincident and shift_coincident (34, 35, 2026-12-03) or left_domain (36,
 /// 2026-12-03) or active_set_released (37, 2026-12-05) or ppe_cold_restarts (38, 2026-12-05) or ppe_solves
-/// and ppe_factorisations (39, 40, 2026-12-07): still read, the missing counters 0.
+/// and ppe_factorisations (39, 40, 2026-12-07) or ppe_repeat_solves and ppe_repeat_iterations (41, 42,
+/// 2026-12-07): still read, the missing counters 0.
 inline constexpr std::size_t lsmps_counter_count_min = 24;
 }  // namespace detail
 

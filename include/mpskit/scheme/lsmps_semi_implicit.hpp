@@ -494,6 +494,13 @@ struct lsmps_counters {
   /// ILUT or ILU(0) factorisations of the pressure solver, a lagged retry's included (0 for solvers without
   /// incomplete factors); since 2026-12-07, as above
   long ppe_factorisations = 0;
+  /// the pressure solves after the first of their step (the active set's and the own-loop guard's repeats
+  /// that made a solve: at most active_set_solves + own_loop_solves); the first solves are ppe_solves −
+  /// this. Since 2026-12-07, as above
+  long ppe_repeat_solves = 0;
+  /// the iterations of those repeated solves (the first solves': ppe_iterations − this); since 2026-12-07, as
+  /// above
+  long ppe_repeat_iterations = 0;
   double inflow_volume = 0.0;   ///< Σ V created by inflow (m^D): the boundary fluxes of the volume ledger
   double outflow_volume = 0.0;  ///< Σ V removed by outflow (both rules, m^D)
   double left_domain_volume = 0.0;  ///< Σ V removed outside lsmps_params::remove_outside (m^D)
@@ -508,7 +515,7 @@ struct lsmps_counters {
 /// lsmps_counters' integer counters in checkpoint order (io/lsmps_checkpoint.hpp; a counter added later goes
 /// last, and the loader reads older files' shorter lists): the one list that saving, loading, restore's check
 /// and the tests walk.
-inline constexpr std::array<long lsmps_counters::*, 41> lsmps_counter_fields{
+inline constexpr std::array<long lsmps_counters::*, 43> lsmps_counter_fields{
     &lsmps_counters::steps, &lsmps_counters::ppe_iterations, &lsmps_counters::ppe_iterations_max,
     &lsmps_counters::ppe_lagged_retries, &lsmps_counters::pinned_components, &lsmps_counters::isolated,
     &lsmps_counters::copies, &lsmps_counters::small_diameter_events, &lsmps_counters::guarded,
@@ -522,7 +529,8 @@ inline constexpr std::array<long lsmps_counters::*, 41> lsmps_counter_fields{
     &lsmps_counters::shift_velocity_clipped, &lsmps_counters::ppe_breakdown_restarts,
     &lsmps_counters::collisions, &lsmps_counters::collision_coincident, &lsmps_counters::shift_coincident,
     &lsmps_counters::left_domain, &lsmps_counters::active_set_released, &lsmps_counters::ppe_cold_restarts,
-    &lsmps_counters::ppe_solves, &lsmps_counters::ppe_factorisations};
+    &lsmps_counters::ppe_solves, &lsmps_counters::ppe_factorisations, &lsmps_counters::ppe_repeat_solves,
+    &lsmps_counters::ppe_repeat_iterations};
 // A counter added to lsmps_counters without a place in the list above fails here.
 static_assert(sizeof(lsmps_counters) == lsmps_counter_fields.size() * sizeof(long) + 3 * sizeof(double));
 
@@ -1310,6 +1318,7 @@ class lsmps_semi_implicit {
   /// 8. The PPE: solve_pressure_with_set, then, with lsmps_params::own_loop, the own-loop guard's checks,
   /// each followed by a new solve when it marked a particle.
   void solve_pressure(double dt) {
+    solves_before_step_ = c_.ppe_solves;  // the solves after this step's first are repeats (the ledger)
     if (p_.own_loop.enabled) {
       const std::size_t n = static_cast<std::size_t>(s_.n_real());
       own_loop_dirichlet_.assign(n, 0);
@@ -1842,6 +1851,10 @@ class lsmps_semi_implicit {
     last_solve_ = ppe::solve_checked(solver_, A_, b_, sol, p_.solver, c_.steps, t_,
                                      [&](index_t r) { return describe(rows_[static_cast<std::size_t>(r)]); },
                                      same_unknowns, to_previous_.empty() ? nullptr : &to_previous_);
+    if (c_.ppe_solves > solves_before_step_) {  // not the step's first solve: a repeat
+      ++c_.ppe_repeat_solves;
+      c_.ppe_repeat_iterations += last_solve_.iterations;
+    }
     ++c_.ppe_solves;
     c_.ppe_factorisations += incomplete_factorisations() - factorised;
     c_.ppe_lagged_retries += last_solve_.lagged_retry;
@@ -2144,6 +2157,7 @@ class lsmps_semi_implicit {
   ppe::matrix A_;
   Eigen::VectorXd b_, b_kept_;  // b_kept_: the right-hand sides as built, for the active set's repeats
   ppe::solve_report last_solve_{};
+  long solves_before_step_ = 0;  // counters().ppe_solves when this step's pressure stage began
   std::vector<std::array<std::int64_t, 3>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
   std::vector<index_t>
       to_previous_;  // row of each unknown in the previous system (ilut_reuse_across_changes)
