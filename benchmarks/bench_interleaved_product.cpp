@@ -122,8 +122,7 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "dam3: Eigen's product %.2f s, interleaved %.2f s (medians), median ratio %.3f, same steps, "
-        "iterations "
-        "and fronts %s\n",
+        "iterations and fronts %s\n",
         median(te), median(ti), median(ratio), same ? "yes" : "NO");
   }
   return 0;

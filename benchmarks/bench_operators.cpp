@@ -288,8 +288,7 @@ void tanaka_table() {
   const auto& table1 = mpskit::cases::tanaka_table1;
   std::printf(
       "\nTanaka 2018 §5.1, two-size block: max normalised error at the interface particles (|x| < 3.1 s, 3.1 "
-      "s < y < 24 - 3.1 s), "
-      "max over the ten Table 1 functions\n");
+      "s < y < 24 - 3.1 s), max over the ten Table 1 functions\n");
   std::printf("| s | operator | df/dx | df/dy | Laplacian |\n|---|---|---|---|---|\n");
   for (double s : {1.0, 1.5, 2.0, 2.5, 3.0}) {
     std::vector<vec<2>> pts;

@@ -73,8 +73,7 @@ int main(int argc, char** argv) {
           "guarded,"
           "max_u_sqrt_gH,T_max_u,p_min_rho_g_H,min_pair_ratio,wall_s,own_loop_checked,own_loop_dirichlet,"
           "own_loop_one_point,own_loop_solves,fallback,ppe_fallbacks,ppe_breakdown_restarts,shift_velocity_"
-          "clipped,"
-          "collision_alpha1,collisions,ppe_cold_restarts\n");
+          "clipped,collision_alpha1,collisions,ppe_cold_restarts\n");
     const cases::tanaka_wall_variant& walls =
         cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
     for (const double L_mm : spacings) {

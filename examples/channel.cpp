@@ -138,8 +138,7 @@ int run_a2(int argc, char** argv) {
   const auto report = [&](const char* name, const auto& r) {
     std::printf(
         "%s: %lld -> %lld particles, L in [%.4g, %.4g] mm, %ld steps, %.1f s wall, %.1f PPE iterations per "
-        "step, "
-        "splits %ld, merges %ld, guarded %ld\n",
+        "step, splits %ld, merges %ld, guarded %ld\n",
         name, static_cast<long long>(r.particles), static_cast<long long>(r.particles_end), r.L_min * 1e3,
         r.L_max * 1e3, r.steps, r.wall_seconds,
         static_cast<double>(r.ppe_iterations) / static_cast<double>(std::max(1L, r.steps)), r.splits,
@@ -165,8 +164,7 @@ int run_a2(int argc, char** argv) {
   report("single resolution", rs);
   std::printf(
       "particles at the start: %.1f %% fewer (%lld against %lld; the paper: 59.4 %%, 26 708 against 65 870 "
-      "in "
-      "its 100 mm channel); wall time %.2f of single resolution (the paper: 0.140)\n",
+      "in its 100 mm channel); wall time %.2f of single resolution (the paper: 0.140)\n",
       100.0 * (1.0 - static_cast<double>(rm.particles) / static_cast<double>(rs.particles)),
       static_cast<long long>(rm.particles), static_cast<long long>(rs.particles),
       rm.wall_seconds / rs.wall_seconds);
@@ -198,8 +196,7 @@ int run(int argc, char** argv) {
       const auto r = mpskit::cases::run_duct(dc, pressure);
       std::printf(
           "3D duct %s, L = %.3f mm, t = %.3f s (%lld -> %lld particles, %ld steps, %.1f s wall): max cell |u "
-          "- series| "
-          "/ u_c = %.4f (RMS %.4f), u_c = %.5f m/s; inflow %ld, outflow %ld\n",
+          "- series| / u_c = %.4f (RMS %.4f), u_c = %.5f m/s; inflow %ld, outflow %ld\n",
           pressure ? "through pressure faces" : "periodic, body force", dc.L * 1e3, dc.t_end,
           static_cast<long long>(r.particles), static_cast<long long>(r.particles_end), r.steps,
           r.wall_seconds, r.max_error, r.rms_error, r.u_centre, r.inflow, r.outflow);
@@ -215,8 +212,7 @@ int run(int argc, char** argv) {
         "3D duct through pressure faces, split near the walls, t = %.3f s (%lld -> %lld particles, L in "
         "[%.3f, "
         "%.3f] mm, %ld splits, %ld merges, %ld steps, %.1f s wall): max cell |u - series| / u_c = %.4f (RMS "
-        "%.4f); "
-        "inflow %ld, outflow %ld, ledger %.1e, guard %ld\n",
+        "%.4f); inflow %ld, outflow %ld, ledger %.1e, guard %ld\n",
         dc.t_end, static_cast<long long>(r.particles), static_cast<long long>(r.particles_end), r.L_min * 1e3,
         r.L_max * 1e3, r.splits, r.merges, r.steps, r.wall_seconds, r.max_error, r.rms_error, r.inflow,
         r.outflow, r.ledger_error, r.guarded);
@@ -311,8 +307,7 @@ int run(int argc, char** argv) {
                        : mpskit::cases::run_multi_diameter(mc);
     std::printf(
         "multi-diameter channel, L = %.3f mm%s%s%s (%lld particles initially, %ld steps, %.1f s wall, %.1f "
-        "PPE "
-        "iterations per step), to %.2f s:\n",
+        "PPE iterations per step), to %.2f s:\n",
         mc.L * 1e3,
         ratio >= 1.0 ? (mc.graded_start ? ", graded to L/ratio in the narrow section at the start"
                                         : ", split to L/ratio in the narrow section")
@@ -331,8 +326,7 @@ int run(int argc, char** argv) {
           mc.pieces.checkpoint.c_str());
       std::printf(
           "  so far: inflow %ld, outflow %ld, p in [%.0f, %.0f] Pa, max |u| %.3f m/s, guarded %ld, particles "
-          "%lld, "
-          "splits %ld, merges %ld\n",
+          "%lld, splits %ld, merges %ld\n",
           r.inflow, r.outflow, r.p_min, r.p_max, r.u_max, r.guarded, static_cast<long long>(r.particles_end),
           r.splits, r.merges);
       return 0;
@@ -342,8 +336,7 @@ int run(int argc, char** argv) {
         mc.window, r.balance, r.q_in);
     std::printf(
         "  inflow %ld, outflow %ld (+%ld behind a face), p in [%.0f, %.0f] Pa, max |u| %.3f m/s (last %.2f "
-        "s: "
-        "%.3f), guarded %ld\n",
+        "s: %.3f), guarded %ld\n",
         r.inflow, r.outflow, r.outflow_behind, r.p_min, r.p_max, r.u_max, mc.window, r.u_max_window,
         r.guarded);
     std::printf("  lowest pressure at (%.1f, %.1f) mm, t = %.4f s; highest at (%.1f, %.1f) mm, t = %.4f s\n",

@@ -150,8 +150,7 @@ int run(int argc, char** argv) {
       "mpskit: flow between two fixed gears (Tanaka 2018 sec. 5.5; our reconstruction, docs/gears.md)\n");
   std::printf(
       "  gears: 12 and 24 teeth, module 3 mm, involute 20 deg, centre distance %.1f mm; teeth thinned by "
-      "%.3f mm "
-      "at the pitch circle for a minimum gap of %.3f mm\n",
+      "%.3f mm at the pitch circle for a minimum gap of %.3f mm\n",
       c.geometry.centre_distance * 1e3, g.thinning * 1e3, g.gap * 1e3);
   std::printf(
       "  window: faces at x = +-%.2f mm, top wall at y = %.1f mm, %d cut-off tooth space(s) left out; fluid "
@@ -161,8 +160,7 @@ int run(int argc, char** argv) {
               static_cast<long long>(rd.mesh.vertices.cols()), static_cast<long long>(rd.mesh.size()));
   std::printf(
       "  L*(d) = %.3f mm for d < %.0f mm, x sqrt(2) every %.0f mm up to %.3f mm; single resolution at L_min "
-      "would "
-      "need area / L_min^2 = %.0f particles\n",
+      "would need area / L_min^2 = %.0f particles\n",
       c.L_min * 1e3, c.r_fine * 1e3, c.level_width * 1e3, c.L_max * 1e3, g.area / (c.L_min * c.L_min));
   std::printf(
       "  pressure: %.0f Pa on the right face, %.0f Pa on the left (flow right to left), rho %.0f, mu %g\n",

@@ -430,20 +430,17 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "  (pair L: the closest pair r_ij/L_ij after any step; |u|max: the largest speed in sqrt(g H), H = "
-        "%.0f mm; "
-        "issue #9's hard-case bounds are >= 0.3 and <= 5)\n",
+        "%.0f mm; issue #9's hard-case bounds are >= 0.3 and <= 5)\n",
         cfg_coarse.column_height * 1e3);
     if (single && runs[0].body_front.samples > 0 && runs[1].body_front.samples > 0)
       std::printf(
           "  front over the largest connected body (spray left out) vs fine, RMS / max: multi %.2f %% / %.2f "
-          "%%, "
-          "coarse %.2f %% / %.2f %%\n",
+          "%%, coarse %.2f %% / %.2f %%\n",
           100 * runs[0].body_front.rms, 100 * runs[0].body_front.max, 100 * runs[1].body_front.rms,
           100 * runs[1].body_front.max);
     std::printf(
         "  far-wall probe (195, 5) mm, first impact: the 10 ms from its first wet sample (the paper's probe "
-        "is 5 mm "
-        "above the block and has no far-wall figure)\n  %-7s %7s %13s %13s  %s\n",
+        "is 5 mm above the block and has no far-wall figure)\n  %-7s %7s %13s %13s  %s\n",
         "run", "wet T", "impulse Pa s", "2 ms peak Pa", "impulse vs fine");
     for (const run_record& rr : runs) {
       if (!std::isfinite(rr.impact.t_arrival)) {
@@ -467,16 +464,14 @@ int main(int argc, char** argv) {
       if (!fine.r.failed && !multi.r.failed)
         std::printf(
             "  wall time: multi %.1f s, fine single %.1f s (%.2fx), coarse single %.1f s; the reference is "
-            "the fine "
-            "run itself, so this is the cost of its accuracy, not a speed-up at equal error "
+            "the fine run itself, so this is the cost of its accuracy, not a speed-up at equal error "
             "(benchmarks/speed_up.hpp)\n",
             multi.r.wall_seconds, fine.r.wall_seconds, fine.r.wall_seconds / multi.r.wall_seconds,
             runs[1].r.wall_seconds);
       else
         std::printf(
             "  wall time: multi %.1f s, coarse single %.1f s, fine single %.1f s%s: no speed figure from "
-            "runs that "
-            "did not all reach T = %g\n",
+            "runs that did not all reach T = %g\n",
             multi.r.wall_seconds, runs[1].r.wall_seconds, fine.r.wall_seconds,
             fine.r.failed ? " (to its failure)" : "", T_end);
     }

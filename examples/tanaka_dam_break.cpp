@@ -178,8 +178,7 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
   const double Z_max = r.Z_body.empty() ? std::nan("") : *std::max_element(r.Z_body.begin(), r.Z_body.end());
   std::printf(
       "  front h/h0: %d of %d samples inside the data band (Martin & Moyce 1952, Koshizuka & Oka 1996, +-10 "
-      "%%); "
-      "the largest connected body's at most %.3f (the far wall: 4)\n",
+      "%%); the largest connected body's at most %.3f (the far wall: 4)\n",
       inside, compared, Z_max);
   if (r.steps > 0)
     std::printf(
@@ -213,8 +212,7 @@ int main(int argc, char** argv) {
     std::fprintf(
         stderr,
         "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid "
-        "mm] "
-        "[--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]] "
+        "mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]] "
         "[--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--out DIR] [--data DIR]\n",
         argv[0]);
     return 2;
@@ -436,8 +434,7 @@ int main(int argc, char** argv) {
     };
     std::printf(
         "mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid "
-        "particles, "
-        "walls '%s', collision alpha1 %g%s%s%s, to T = %g\n",
+        "particles, walls '%s', collision alpha1 %g%s%s%s, to T = %g\n",
         obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()),
         walls.name.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
         shift_isolated ? ", isolated particles in the shifting penalty" : "",
@@ -506,8 +503,7 @@ int main(int argc, char** argv) {
     else if (r.stopped)
       std::printf(
           "  stopped after %g s of this process at T = %.4f (of %g), checkpoint written: continue with "
-          "--resume %s "
-          "(and --checkpoint %s to go on writing it; the numbers below are the run's so far)\n",
+          "--resume %s (and --checkpoint %s to go on writing it; the numbers below are the run's so far)\n",
           pieces.stop_after, r.T_reached, T_end, pieces.checkpoint.c_str(), pieces.checkpoint.c_str());
     else
       std::printf("  reached T = %g (t = %.4f s)\n", T_end, T_end / db.t_star(1.0));
@@ -534,8 +530,7 @@ int main(int argc, char** argv) {
         r.guarded, r.active_set_rows, r.left_domain);
     std::printf(
         "  PPE solves restarted from 0 after a Krylov breakdown %ld, after not converging from the warm "
-        "start "
-        "%ld (docs/run.md); shifted velocities clipped %ld; colliding pairs %ld\n",
+        "start %ld (docs/run.md); shifted velocities clipped %ld; colliding pairs %ld\n",
         r.ppe_breakdown_restarts, r.ppe_cold_restarts, r.shift_velocity_clipped, r.collisions);
     if (r.ppe_solves > 0) {
       const long first = r.ppe_solves - r.ppe_repeat_solves;

@@ -81,8 +81,7 @@ TEST_SUITE("poiseuille") {
                   pr.rms_error, pr.max_cross);
     std::printf(
         "poiseuille pressure end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, p err %.4f, "
-        "volume "
-        "[%.4f, %.4f], in %ld out %ld behind %ld, ledger %.1e, steps %ld, guarded %ld, %.1f s\n",
+        "volume [%.4f, %.4f], in %ld out %ld behind %ld, ledger %.1e, steps %ld, guarded %ld, %.1f s\n",
         r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, r.pressure_error, r.volume_min,
         r.volume_max, r.inflow, r.outflow, r.outflow_behind, r.ledger_error, r.steps, r.guarded,
         r.wall_seconds);
@@ -128,8 +127,7 @@ TEST_SUITE("poiseuille") {
     REQUIRE(r.probes.size() == 1);
     std::printf(
         "pipe t = %.4f s: max ring error %.4f rms %.4f; %lld particles, %ld steps, %.0f copies/step, guarded "
-        "%ld, "
-        "%.1f s\n",
+        "%ld, %.1f s\n",
         r.probes[0].t, r.probes[0].max_error, r.probes[0].rms_error, static_cast<long long>(r.particles),
         r.steps, r.copies_per_step, r.guarded, r.wall_seconds);
     // Issue #8: within 3 % of u_max (ring averages over 8 rings of width L). Measured 0.52 %.
@@ -568,8 +566,7 @@ TEST_SUITE("multi_diameter_channel") {
     const auto r = cases::run_multi_diameter(c);
     std::printf(
         "multi-diameter channel: balance %.4f (Q_in %.3e, Q_out %.3e, dV/dt %.1e m^2/s), in %ld out %ld "
-        "behind "
-        "%ld, guarded %ld, ledger %.1e, p in [%.0f, %.0f] Pa, |u|max %.3f m/s, %ld steps, %.1f s\n",
+        "behind %ld, guarded %ld, ledger %.1e, p in [%.0f, %.0f] Pa, |u|max %.3f m/s, %ld steps, %.1f s\n",
         r.balance, r.q_in, r.q_out, r.dvdt, r.inflow, r.outflow, r.outflow_behind, r.guarded, r.ledger_error,
         r.p_min, r.p_max, r.u_max, r.steps, r.wall_seconds);
     // measured (ILUT): balance 0.64 % (1.02 % with thin_walls on, 1.23 % before deviation 14 of
@@ -707,8 +704,7 @@ TEST_SUITE("poiseuille_multires") {
                   pr.rms_error);
     std::printf(
         "poiseuille multires end t = %.4f: series err %.4f, steady err %.4f, centre %.5f m/s, particles %ld "
-        "-> "
-        "%ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, %ld steps, %.1f s\n",
+        "-> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, %ld steps, %.1f s\n",
         r.end.t, r.end.max_error, r.steady_error, r.centre_velocity, static_cast<long>(r.particles),
         static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.steps,
         r.wall_seconds);
@@ -753,8 +749,7 @@ TEST_SUITE("graded_start") {
     const auto rg = cases::run_poiseuille_periodic<poiseuille_multires_scene>(c);
     std::printf(
         "poiseuille 2:1 graded start: %ld particles (split start after %ld steps: %ld, %ld splits), L in "
-        "[%.3f, "
-        "%.3f] mm, splits %ld merges %ld to t = %.3f s, series err %.4f, %.1f s\n",
+        "[%.3f, %.3f] mm, splits %ld merges %ld to t = %.3f s, series err %.4f, %.1f s\n",
         static_cast<long>(rg.particles), rs.steps, static_cast<long>(rs.particles_end), rs.splits,
         rg.L_min * 1e3, rg.L_max * 1e3, rg.splits, rg.merges, rg.end.t, rg.end.max_error, rg.wall_seconds);
     CHECK(rs.splits > 100);
@@ -843,8 +838,7 @@ TEST_SUITE("poiseuille") {
     const auto r = cases::run_duct(c);
     std::printf(
         "3D pressure duct: max err %.4f rms %.4f of u_c = %.5f m/s, %ld steps, in %ld out %ld, particles %ld "
-        "-> %ld, "
-        "ledger %.1e, guarded %ld, %.1f s\n",
+        "-> %ld, ledger %.1e, guarded %ld, %.1f s\n",
         r.max_error, r.rms_error, r.u_centre, r.steps, r.inflow, r.outflow, static_cast<long>(r.particles),
         static_cast<long>(r.particles_end), r.ledger_error, r.guarded, r.wall_seconds);
     CHECK(r.max_error <= 0.03);

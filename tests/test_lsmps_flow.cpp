@@ -43,8 +43,7 @@ TEST_SUITE("taylor_green") {
     for (const auto* r : {&r25, &r50})
       std::printf(
           "taylor_green N=%lld: steps %ld, E/E0-1 %.3e (max %.3e), momentum %.2e, p error max %.3f mean "
-          "%.3f, "
-          "u error %.3e, pinned %ld, iterations %ld, %.1f s\n",
+          "%.3f, u error %.3e, pinned %ld, iterations %ld, %.1f s\n",
           static_cast<long long>(std::llround(std::sqrt(double(r->particles)))), r->steps, r->energy_drift,
           r->max_energy_drift, r->momentum_ratio, r->pressure_error, r->pressure_error_mean,
           r->velocity_error, r->pinned, r->ppe_iterations, r->wall_seconds);
@@ -112,8 +111,7 @@ void check_first_step_hydrostatic(double angle_deg, double L) {
   }
   std::printf(
       "hydrostatic_polygon %dD %.0f deg L = %.3f: %lld fluid, %lld copies, max |p - rho g d|/(rho g H) = "
-      "%.2e, "
-      "false surface %ld, top row unflagged %ld\n",
+      "%.2e, false surface %ld, top row unflagged %ld\n",
       D, angle_deg, L, static_cast<long long>(n), static_cast<long long>(st.n_ghost()), err, false_surface,
       top_unflagged);
   CHECK(st.n_ghost() > 0);
@@ -152,8 +150,7 @@ cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, doubl
   std::printf(
       "hydrostatic_polygon long %dD %.0f deg L = %.4f alpha_g = %g: %lld fluid, %ld steps, max bin error "
       "%.4f, rms %.2e, max %.2e sqrt(gH), surface %.4f (initial %.4f), guarded %ld, min signed distance %.2e "
-      "L, "
-      "%.1f s\n",
+      "L, %.1f s\n",
       D, angle_deg, L, alpha_g, static_cast<long long>(r.fluid), r.steps, r.max_bin_error, r.rms_speed,
       r.max_speed, r.surface_height, r.surface_height_initial, r.guarded, r.min_signed_distance / L,
       r.wall_seconds);
@@ -1165,8 +1162,7 @@ tanaka_run measure_tanaka_dam_break(const cases::tanaka_dam_break_config& c, dou
       "dam_break_lsmps L = %g mm to T = %.2f (%s): front in band %d/%d, min fluid p = %.0f Pa (-rho g H = "
       "%.0f; copies %.0f), "
       "%ld steps, filtered %ld particle-steps, guarded %ld, min r_ij/L_ij %.3f (T = %.2f), max |u| %.2f "
-      "sqrt(gH) (T = %.2f), "
-      "active-set rows %ld (unfinished steps %ld)\n",
+      "sqrt(gH) (T = %.2f), active-set rows %ld (unfinished steps %ld)\n",
       1e3 * L, T_end, what.c_str(), inside, samples, r.p_min, -r.rho_g_h, r.p_min_copies, r.steps, r.filtered,
       r.guarded, r.min_pair_ratio, r.T_min_pair, u_max / sqrt_gH, T_u, r.active_set_rows,
       r.active_set_unfinished);

@@ -180,8 +180,7 @@ TEST_SUITE("projection_stability") {
       const tank_radii r = tank_spectral_radii<tank_scene_3d>(tc, false);
       std::printf(
           "projection_stability 3D tank %.0f deg, %lld fluid: |lambda|max - 1 = %.3e (filtered, the "
-          "default), "
-          "%.3e (no filter)\n",
+          "default), %.3e (no filter)\n",
           angle, static_cast<long long>(r.fluid), r.filtered - 1.0, r.plain - 1.0);
       CHECK(r.filtered - 1.0 <= 1e-9);  // measured −5.3e-3 (box), −2.2e-3 (60°)
       CHECK(r.plain - 1.0 >= 1e-3);     // measured 8.3e-3 (both): the filter is needed in 3D too

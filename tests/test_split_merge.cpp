@@ -1681,8 +1681,7 @@ TEST_SUITE("multires_hard") {
         "multires_hard %dD: %ld steps, %ld -> %ld particles, L_min/L = %.3f, splits %ld (%ld of surface "
         "particles), "
         "merges %ld, contact refusals %ld; max |u| / sqrt(gH) over the run %.2e, at the end %.2e; min "
-        "r_ij/L_ij "
-        "%.3f; max c %.3f; guard %ld; collisions %ld; volume change %.1e\n",
+        "r_ij/L_ij %.3f; max c %.3f; guard %ld; collisions %ld; volume change %.1e\n",
         D, k, static_cast<long>(tank.size()), static_cast<long>(sim.state().n_real()), o.Lmin / tc.L,
         o.splits, o.surface_splits, o.merges, o.contact_refusals, o.umax_run, o.umax_end, o.rmin, o.cmax,
         o.guarded, o.collisions, o.dV);
@@ -1955,8 +1954,7 @@ TEST_SUITE("taylor_green_multires") {
     for (const auto* o : {&single, &multi})
       std::printf(
           "taylor_green_multires %s: %ld steps, particles end %ld (max %ld), splits %ld, merges %ld, E/E0 - "
-          "1 = "
-          "%.3e, min r_ij/L_ij = %.3f, max c = %.3f, max |u| = %.3f, ledger dKE/E0 = %.2e\n",
+          "1 = %.3e, min r_ij/L_ij = %.3f, max c = %.3f, max |u| = %.3f, ledger dKE/E0 = %.2e\n",
           o == &single ? "single" : "multi ", o->steps, static_cast<long>(o->nend),
           static_cast<long>(o->nmax), o->splits, o->merges, o->drift, o->rmin, o->cmax, o->umax,
           o->ledger_dke);
@@ -2169,8 +2167,7 @@ TEST_SUITE("multires_hard") {
     const double sqrt_gh = std::sqrt(c.g * c.column_height);
     std::printf(
         "multires_hard dam break 2 s: particles %ld -> %ld, L_min %.2f mm, splits %ld merges %ld, volume "
-        "change "
-        "%.1e, guard %ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f (T = %.2f; %.3f without isolated "
+        "change %.1e, guard %ld, max |u| %.2f sqrt(gH), min r_ij/L_ij %.3f (T = %.2f; %.3f without isolated "
         "particles), max c %.3f, collisions %ld, removed over the walls %ld, steps %ld, %.1f s\n",
         static_cast<long>(r.particles), static_cast<long>(r.particles_end), r.L_min * 1e3, r.splits, r.merges,
         r.volume_change, r.guarded, umax / sqrt_gh, r.min_pair_ratio, r.T_min_pair,

@@ -173,8 +173,7 @@ inline scheme::lsmps_state<2> channel_start(const poiseuille_config& c, double l
     fail("poiseuille_config: the graded start leaves ", g.dropped_volume / (length * H) * 100.0,
          " % of the channel's volume "
          "without particles: the target asks for an odd number of splits beside a wall (diagonal pairs "
-         "closer than "
-         "half their diameter to it); choose a target diameter L / 2^(k/2) with k even there");
+         "closer than half their diameter to it); choose a target diameter L / 2^(k/2) with k even there");
   scheme::lsmps_state<2> s(static_cast<index_t>(g.size()));
   for (std::size_t q = 0; q < g.size(); ++q) {
     s.x().col(static_cast<index_t>(q)) = g.x[q];

@@ -163,8 +163,7 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     if (p.penalty != penalty_direction::pair)
       fail(
           "tanaka_shift: penalty_only needs penalty_direction::pair (the printed direction -grad c does not "
-          "push "
-          "i away from j)");
+          "push i away from j)");
     for (index_t j = m; j < rows; ++j)
       if ((*penalty_only)[static_cast<std::size_t>(j)])
         fail("tanaka_shift: penalty_only is set at row ", j, " >= active.size() = ", m,

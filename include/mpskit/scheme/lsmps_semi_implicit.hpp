@@ -654,8 +654,7 @@ class lsmps_semi_implicit {
         if ((k > 0 && !(held[k - 1] < held[k])) || !std::binary_search(ids.begin(), ids.end(), held[k]))
           fail(
               "lsmps_semi_implicit::restore: the active set's held ids must be strictly increasing ids of "
-              "restored "
-              "particles (entry ",
+              "restored particles (entry ",
               k, ": id ", held[k], ")");
     }
     resolution::conservation_ledger<D> ledger = ledger_;
