@@ -73,8 +73,8 @@ int main(int argc, char** argv) {
         auto t0 = std::chrono::steady_clock::now();
         for (int k = 0; k < 400; ++k) {
           ye.noalias() = R * x;
-          x[k % n] +=
-              1e-3 * ye[(k * 7) % n] / (1.0 + std::abs(ye[(k * 7) % n]));  // a dependence: no hoisting
+          // a dependence: no hoisting
+          x[k % n] += 1e-3 * ye[(k * 7) % n] / (1.0 + std::abs(ye[(k * 7) % n]));
         }
         te.push_back(seconds_since(t0));
         x = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0);

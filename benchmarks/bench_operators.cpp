@@ -327,8 +327,8 @@ void tanaka_table() {
         const double lap = 2 * c[0] + 2 * c[1];
         for (index_t i = 0; i < x.cols(); ++i) {
           const double X = x(0, i), Y = x(1, i);
-          if (!(std::abs(X) < 3.1 * s && Y > 3.1 * s && Y < 24.0 - 3.1 * s))
-            continue;  // interface, full support
+          // interface, full support
+          if (!(std::abs(X) < 3.1 * s && Y > 3.1 * s && Y < 24.0 - 3.1 * s)) continue;
           const auto [g, l] = gl(i, phi);
           ex = std::max(ex, std::abs(g[0] - (2 * c[0] * X + c[2] * Y + c[3])) / gx);
           ey = std::max(ey, std::abs(g[1] - (2 * c[1] * Y + c[2] * X + c[4])) / gy);

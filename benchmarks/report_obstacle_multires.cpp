@@ -312,8 +312,8 @@ int main(int argc, char** argv) try {
     else if (k == "--out") out = v;
     else if (k == "--series") series = v;
     else if (k == "--walls") walls = v;  // checked by obstacle_params below, before any run
-    else if (k == "--collision")
-      collision = bench::parse_number("--collision", v, 0.0);  // validated by the scheme
+    // validated by the scheme
+    else if (k == "--collision") collision = bench::parse_number("--collision", v, 0.0);
     else if (k == "--collide-isolated") collide_isolated = flag01("--collide-isolated", v);
     else if (k == "--shift-isolated") shift_isolated = flag01("--shift-isolated", v);
     else if (k == "--solver") {

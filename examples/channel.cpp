@@ -12,8 +12,8 @@
 //            (cases::refine_duct_walls; issue #9; default to 0.05 s, ≈ 4 min of one core)
 //   --multi: the multi-diameter channel (30 mm -> 10 mm, 100 Pa -> 0 Pa, mu = 0.001 Pa s); default L = 1 mm
 //            to 0.3 s (the CI case); the paper's is L = 0.25 mm to 1 s. --refine R: start from L and split to
-//            L/R entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is 0.75 ->
-//            0.25 mm, R = 3)
+//            L/R entering the narrow section (issue #9; CI: R = 2; the paper's multi-resolution is
+//            0.75 -> 0.25 mm, R = 3)
 //            --graded: with --refine, start from particles at the target diameter
 //            (resolution::graded_lattice)
 //            --neumann-points: the wall copies as Neumann points (lsmps_params::copy_row,
@@ -111,8 +111,8 @@ int run_a2(int argc, char** argv) {
       return 2;
     }
   }
-  mpskit::cases::poiseuille_config
-      c;  // H = 10 mm, G = 1000 Pa/m, mu = 0.1 Pa s, L = 0.5 mm (the coarse size)
+  // H = 10 mm, G = 1000 Pa/m, mu = 0.1 Pa s, L = 0.5 mm (the coarse size)
+  mpskit::cases::poiseuille_config c;
   const double Lc = c.L, Lf = Lc / ratio, nu = c.mu / c.rho;
   c.length = pressure ? 0.1 : 0.005;
   c.t_end = t_end;

@@ -179,8 +179,8 @@ int main(int argc, char** argv) {
     regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, also before any run
     if (collide_isolated_asked && collision == 0.0)
       fail(who, ": --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
-    if (collision == 0.0)
-      collide_isolated = false;  // nothing collides without the stage (the default's "on" lapses)
+    // nothing collides without the stage (the default's "on" lapses)
+    if (collision == 0.0) collide_isolated = false;
     const double L = 1e-3 * L_mm, Lf = L / ratio;
     const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
     const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);

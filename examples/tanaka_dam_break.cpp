@@ -124,8 +124,8 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
   p.collision.alpha1 = collision;
   p.collision.isolated = collide_isolated;
   p.shift_isolated_penalty = shift_isolated;
-  const cases::tanaka_slab slab =
-      cases::make_tanaka_slab(cfg, layers, sides);  // refuses bad input before any output
+  // refuses bad input before any output
+  const cases::tanaka_slab slab = cases::make_tanaka_slab(cfg, layers, sides);
   fs::create_directories(out);
   io::vtk_series vtk(fs::path(out) / "tanaka_dam_break_slab");
   io::progress_sink progress(std::cerr, 2.0);
@@ -139,8 +139,8 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
                      sim.state().n_real(), wall});
     if (T + 1e-9 >= next_vtk || T >= T_end) {
       vtk.write(sim.state(), sim.time(), sim.counters().steps);
-      if (T + 1e-9 >= next_vtk)
-        next_vtk += 0.25;  // not for the last step's frame: an extended run keeps the grid
+      // not for the last step's frame: an extended run keeps the grid
+      if (T + 1e-9 >= next_vtk) next_vtk += 0.25;
     }
   };
   std::printf(
@@ -269,8 +269,8 @@ int main(int argc, char** argv) {
     regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
     if (collide_isolated_asked && collision == 0.0)
       fail("tanaka_dam_break: --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
-    if (collision == 0.0)
-      collide_isolated = false;  // nothing collides without the stage (the default's "on" lapses)
+    // nothing collides without the stage (the default's "on" lapses)
+    if (collision == 0.0) collide_isolated = false;
     cases::tanaka_dam_break_config cfg =
         obstacle ? cases::tanaka_obstacle_config(1e-3 * L_mm) : cases::tanaka_dam_break_config{};
     cfg.L = 1e-3 * L_mm;
@@ -343,8 +343,8 @@ int main(int argc, char** argv) {
                        st.n_real(), wall_before + wall});
       if (T + 1e-9 >= next_vtk || T >= T_end) {  // every 0.25 in T and the last step
         vtk.write(st, sim.time(), c.steps);
-        if (T + 1e-9 >= next_vtk)
-          next_vtk += 0.25;  // not for the last step's frame: a resumed, extended run keeps the grid
+        // not for the last step's frame: a resumed, extended run keeps the grid
+        if (T + 1e-9 >= next_vtk) next_vtk += 0.25;
         snap.open(fs::path(out) / "particles.dat",
                   std::ios::trunc);  // the latest written state, for the picture
         T_snap = T;
@@ -513,8 +513,8 @@ int main(int argc, char** argv) {
           "+-10 %%)\n",
           inside, compared);
     std::printf(
-        "  lowest fluid pressure %.0f Pa = %.2f rho g H (issue #7: >= -1); copies (auxiliary unknowns) %.0f "
-        "Pa\n",
+        "  lowest fluid pressure %.0f Pa = %.2f rho g H (issue #7: >= -1); copies (auxiliary unknowns) "
+        "%.0f Pa\n",
         r.p_min, r.p_min / r.rho_g_h, r.p_min_copies);
     if (r.steps > 0)
       std::printf(
@@ -557,8 +557,8 @@ int main(int argc, char** argv) {
       std::printf("  probe (%.0f, %.0f) mm: dry to the end\n", probe[0] * 1e3, probe[1] * 1e3);
     if (trace)
       std::printf(
-          "  trace: %d step(s) with a fluid particle faster than %g m/s in %s/trace.txt (pressures in rho g "
-          "H)\n",
+          "  trace: %d step(s) with a fluid particle faster than %g m/s in %s/trace.txt (pressures in "
+          "rho g H)\n",
           traced, trace_speed, out.c_str());
     io::print_summary(std::cout, counters.summary(wall));
     std::printf("  output: %s/tanaka_dam_break.pvd (%ld files), front.csv, probe.csv%s\n", out.c_str(),

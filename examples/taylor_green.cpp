@@ -29,8 +29,8 @@ int main(int argc, char** argv) {
   std::printf("taylor_green %d x %d to t = %.2f s (%ld steps, %.1f s wall, %.1f PPE it/step)\n", c.n, c.n,
               c.t_end, r.steps, r.wall_seconds, double(r.ppe_iterations) / double(r.steps));
   std::printf(
-      "  energy E/E0 - 1 = %+.3e at the end (max |.| %.3e); Tanaka 2018 reports about 1e-3 after 1 s at 200 "
-      "x 200\n",
+      "  energy E/E0 - 1 = %+.3e at the end (max |.| %.3e); Tanaka 2018 reports about 1e-3 after 1 s at "
+      "200 x 200\n",
       r.energy_drift, r.max_energy_drift);
   std::printf(
       "  momentum |sum V u| / sum V|u| <= %.2e; mean-free pressure L2 error vs eq. 104: mean %.3f, max "

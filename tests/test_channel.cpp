@@ -536,8 +536,8 @@ TEST_SUITE("pressure_boundary") {
         ep, eu, sim.counters().pinned_components);
     CHECK(ep <= 1e-7);  // solver tolerance 1e-8 (relative residual)
     CHECK(eu <= 1e-5);
-    CHECK(sim.counters().pinned_components ==
-          0);                  // the boundary particles are Dirichlet rows: nothing floats
+    // the boundary particles are Dirichlet rows: nothing floats
+    CHECK(sim.counters().pinned_components == 0);
     CHECK(st.n_ghost() == 0);  // pressure-boundary scenes end a step with the ghosts cleared (resize path)
   }
 }
@@ -804,8 +804,8 @@ TEST_SUITE("poiseuille_multires") {
     std::printf(
         "pressure-driven poiseuille multires: t = %.3f s max err %.4f; end t = %.3f s series err %.4f, "
         "particles %ld "
-        "-> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld, ledger %.1e, guarded %ld, %.1f "
-        "s\n",
+        "-> %ld, L in [%.3f, %.3f] mm, splits %ld merges %ld, in %ld out %ld, ledger %.1e, guarded %ld, "
+        "%.1f s\n",
         r.probes[0].t, r.probes[0].max_error, r.end.t, r.end.max_error, static_cast<long>(r.particles),
         static_cast<long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges, r.inflow,
         r.outflow, r.ledger_error, r.guarded, r.wall_seconds);

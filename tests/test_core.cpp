@@ -241,8 +241,8 @@ TEST_SUITE("core") {
       std::uniform_real_distribution<double> e(-12.0, 0.0);
       double lim = p.dt_max;
       for (int n = 0; n < 200; ++n) {
-        lim =
-            std::min(lim, p.dt_max * std::exp2(e(rng)) * 4.0);  // non-increasing: the controller never climbs
+        // non-increasing: the controller never climbs
+        lim = std::min(lim, p.dt_max * std::exp2(e(rng)) * 4.0);
         const double dt = step_to(c, lim);
         const int k = c.state().halvings;
         CHECK(dt <= lim);
@@ -279,8 +279,8 @@ TEST_SUITE("core") {
     const scheme::time_step_controller c(p);
     // Courant of the limiting particle (L 2 mm, 1 m/s): 2e-4 s; viscous at the smallest L (1 mm): 0.1 L²/ν.
     CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-6) == doctest::Approx(2e-4).epsilon(1e-15));
-    CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-3) ==
-          doctest::Approx(1e-4).epsilon(1e-15));  // not 0.1 (2 mm)²/ν = 4e-4
+    // not 0.1 (2 mm)²/ν = 4e-4
+    CHECK(c.limit(2e-3, 1.0, 1e-3, 1e-3) == doctest::Approx(1e-4).epsilon(1e-15));
     CHECK(c.limit(1e-3, 1.0, 1e-6) == c.limit(1e-3, 1.0, 1e-3, 1e-6));            // one spacing: the old form
     CHECK(c.limit(2e-3, 0.0, 1e-3, 0.0) == p.dt_max);                             // at rest, inviscid
   }

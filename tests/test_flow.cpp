@@ -422,8 +422,8 @@ TEST_SUITE("solver") {
     sp.ilut_reuse = 3;
     ppe::bicgstab solver(sp);
     std::vector<ppe::matrix> As;
-    for (int k = 0; k < 5; ++k)
-      As.push_back(make(1.0 + 0.05 * k, nullptr));  // slowly changing, same unknowns
+    // slowly changing, same unknowns
+    for (int k = 0; k < 5; ++k) As.push_back(make(1.0 + 0.05 * k, nullptr));
     std::vector<long> fact;
     for (int k = 0; k < 5; ++k) {
       const Eigen::VectorXd b = As[static_cast<std::size_t>(k)] * u;

@@ -540,8 +540,8 @@ TEST_SUITE("geometry") {
     CHECK(c.mesh.vertices.cols() == 8);
     CHECK(c.quality.merged_vertices == 36 - 8);  // every corner stored once per triangle in STL
     CHECK(c.quality.clean());
-    CHECK(geo::polygon_set<3>(c.mesh).signed_distance(vec<3>(0.5, 0.5, 0.2)) ==
-          doctest::Approx(-0.2));  // outward winding
+    // outward winding
+    CHECK(geo::polygon_set<3>(c.mesh).signed_distance(vec<3>(0.5, 0.5, 0.2)) == doctest::Approx(-0.2));
     const geo::read_result<3> o = geo::read_obj(data("pyramid.obj"));
     CHECK(o.mesh.size() == 6);  // quad base fan-triangulated into 2 + 4 sides
     CHECK(o.quality.closed());

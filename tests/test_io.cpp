@@ -771,11 +771,11 @@ TEST_SUITE("io") {
     bad[3] = 0.0;
     check_refused([&] { io::largest_body(x, bad, n, all); }, {"particle 3"});
     points<2> far = x;
-    far(1, 30) =
-        1e19 * 1.5 * d.maxCoeff();  // the block's top-left corner 1e19 cells up: int64_t would overflow
+    // the block's top-left corner 1e19 cells up: int64_t would overflow
+    far(1, 30) = 1e19 * 1.5 * d.maxCoeff();
     check_refused([&] { io::largest_body(far, d, n, all); }, {"particle 30", "along axis 1", "4e18 cells"});
-    far(1, 30) =
-        1e17 * 1.5 * d.maxCoeff();  // far, but representable: a body of its own, the block stays the body
+    // far, but representable: a body of its own, the block stays the body
+    far(1, 30) = 1e17 * 1.5 * d.maxCoeff();
     m = io::largest_body(far, d, n, all);
     CHECK(m[30] == 0);
     CHECK(std::count(m.begin(), m.end(), 1) == 35 + chain);

@@ -149,8 +149,8 @@ cases::hydrostatic_polygon_result check_long_hydrostatic(double angle_deg, doubl
   const auto r = cases::run_hydrostatic_polygon<lsmps_defaults<D>>(cfg);
   std::printf(
       "hydrostatic_polygon long %dD %.0f deg L = %.4f alpha_g = %g: %lld fluid, %ld steps, max bin error "
-      "%.4f, rms %.2e, max %.2e sqrt(gH), surface %.4f (initial %.4f), guarded %ld, min signed distance %.2e "
-      "L, %.1f s\n",
+      "%.4f, rms %.2e, max %.2e sqrt(gH), surface %.4f (initial %.4f), guarded %ld, min signed distance "
+      "%.2e L, %.1f s\n",
       D, angle_deg, L, alpha_g, static_cast<long long>(r.fluid), r.steps, r.max_bin_error, r.rms_speed,
       r.max_speed, r.surface_height, r.surface_height_initial, r.guarded, r.min_signed_distance / L,
       r.wall_seconds);
@@ -539,8 +539,8 @@ TEST_SUITE("hydrostatic_polygon") {
     const auto& st = sim.state();
     for (index_t i = 0; i < 2; ++i) {
       CAPTURE(i);
-      REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::surface) !=
-              0);  // the premise: nothing to solve
+      // the premise: nothing to solve
+      REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::surface) != 0);
       REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::isolated) == 0);
       CHECK(st.get<field::pressure>()[i] == 0.0);
       MESSAGE("u = (" << st.u()(0, i) << ", " << st.u()(1, i)
@@ -1269,8 +1269,8 @@ TEST_SUITE("dam_break_lsmps") {
     const auto cut = cases::measure_impact(std::vector<double>(t.begin(), t.begin() + 10401),
                                            std::vector<double>(p.begin(), p.begin() + 10401), 0.02, 0.002);
     CHECK_FALSE(cut.complete);
-    CHECK(cut.impulse ==
-          doctest::Approx(0.5 * H * (0.002 / b) * 0.002).epsilon(1e-9));  // the ramp to 0.104 s
+    // the ramp to 0.104 s
+    CHECK(cut.impulse == doctest::Approx(0.5 * H * (0.002 / b) * 0.002).epsilon(1e-9));
     CHECK(std::isnan(cases::measure_impact({0.0, 1.0}, {std::nan(""), std::nan("")}, 0.02, 0.002).t_arrival));
     CHECK_THROWS_WITH_AS(cases::measure_impact({0.0, 1.0}, {0.0}, 0.02, 0.002),
                          doctest::Contains("2 times but 1"), mpskit::error);
@@ -1335,8 +1335,8 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.active_set_unfinished == 0);
     CHECK(r.pmin >= 0.0);  // by the set (a kept negative would be counted above); issue #7 asks ≥ −ρgH
     CHECK(r.active_set_rows > 0);
-    CHECK(r.guarded <=
-          4);  // measured 2 (in the impact); issue #9's hard cases report leakage rather than forbid it
+    // measured 2 (in the impact); issue #9's hard cases report leakage rather than forbid it
+    CHECK(r.guarded <= 4);
     REQUIRE(std::isfinite(r.impact.t_arrival));
     CHECK(r.impact.complete);  // the run got through the probe's 10 ms window
     CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
@@ -1359,8 +1359,8 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.samples >= 60);
     CHECK(r.inside == r.samples);  // the issue's band, strictly
     CHECK(r.active_set_unfinished == 0);
-    CHECK(r.pmin >=
-          0.0);  // by the set; issue #7 asks >= -rho g H (the copies, auxiliary unknowns: -11 rho g H)
+    // by the set; issue #7 asks >= -rho g H (the copies, auxiliary unknowns: -11 rho g H)
+    CHECK(r.pmin >= 0.0);
     CHECK(r.guarded == 0);
     CHECK(r.min_pair >= 0.5);  // issue #9's hard-case bound is 0.3
     REQUIRE(std::isfinite(r.impact.t_arrival));
@@ -1474,8 +1474,8 @@ TEST_SUITE("dam_break_lsmps") {
     CHECK(r.min_pair >= 0.45);   // the collision stage: 0.06 L at 3 mm without it (docs/validation.md)
     REQUIRE(std::isfinite(r.impact.t_arrival));
     CHECK(r.impact.complete);    // through the probe's 10 ms window
-    CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <=
-          0.1);  // wet by the surge, not a film
+    // wet by the surge, not a film
+    CHECK(std::abs(r.impact.t_arrival * r.T_of_t - r.T_front_at_probe) <= 0.1);
   }
   TEST_CASE("Tanaka's dam break, L = 4 mm, copies as Neumann points: band and p >= -rho g H for T <= 1.9") {
     // copy_row = neumann_points (opt-in, docs/lsmps_scheme.md deviation 11): no copy unknowns, so the floor
@@ -1579,8 +1579,8 @@ TEST_SUITE("dam_break_slab") {
         cases::read_front_data(std::string(MPSKIT_TEST_DATA_DIR) + "/dam_break_front");
     int samples = 0, inside = 0, at_wall = 0, after = 0;
     for (std::size_t k = 0; k < r.T.size(); ++k) {
-      if (r.T[k] >= 3.2)
-        ++after, at_wall += r.Z_body[k] >= 3.9;  // the body at the far wall (Z = 4) to the end
+      // the body at the far wall (Z = 4) to the end
+      if (r.T[k] >= 3.2) ++after, at_wall += r.Z_body[k] >= 3.9;
       const auto band = cases::front_band(data, r.T[k]);
       if (std::isnan(band.first)) continue;
       ++samples;
@@ -1592,8 +1592,8 @@ TEST_SUITE("dam_break_slab") {
     int compared = 0;
     for (std::size_t k = 0; k < r.T.size() && r.T[k] <= 2.5; ++k) {
       if (r.T[k] < r2.T.front() || r.T[k] > r2.T.back()) continue;
-      const auto it =
-          std::upper_bound(r2.T.begin(), r2.T.end(), r.T[k]);  // not begin: r.T[k] >= r2.T.front()
+      // not begin: r.T[k] >= r2.T.front()
+      const auto it = std::upper_bound(r2.T.begin(), r2.T.end(), r.T[k]);
       const std::size_t j = it == r2.T.end() ? r2.T.size() - 1 : static_cast<std::size_t>(it - r2.T.begin());
       const double w = (r.T[k] - r2.T[j - 1]) / (r2.T[j] - r2.T[j - 1]);
       const double z2 = (1.0 - w) * r2.Z[j - 1] + w * r2.Z[j];
@@ -1702,8 +1702,8 @@ TEST_SUITE("restart") {
     third.resume = second.checkpoint;
     const auto r = cases::run_tanaka_dam_break(c, 3.3, p, false, cases::no_tanaka_observer{}, third);
     CHECK(r.resumed_at == b.T_reached);
-    CHECK(r.wall_seconds_before >
-          b.wall_seconds_before);  // the earlier pieces' wall time travels in the file
+    // the earlier pieces' wall time travels in the file
+    CHECK(r.wall_seconds_before > b.wall_seconds_before);
     CHECK(b.wall_seconds_before > 0.0);
     using mpskit::test::same_bits;
     REQUIRE(straight.probe_t.size() == r.probe_t.size());

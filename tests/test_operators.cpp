@@ -280,8 +280,8 @@ double type_b_reproduction_error(const Op& B, const points<D>& x, const polynomi
     const auto st = B.stencil(x, vec<D>(q.col(i)), l, all, op::uniform_size{l});
     flagged += (st.flags & flag::degenerate) != 0;
     const typename Op::vector got = st.apply(phi);
-    const double tol_i =
-        std::max(tol, 1e-12 * st.condition);  // as type_a_reproduction_error (cond₁ ≥ cond₂/m)
+    // as type_a_reproduction_error (cond₁ ≥ cond₂/m)
+    const double tol_i = std::max(tol, 1e-12 * st.condition);
     for (std::size_t k = 0; k < ders.size(); ++k)
       err = std::max(err, std::abs(got[static_cast<int>(k)] - f.d(q.col(i), ders[k])) /
                               std::max(scale[k], 1e-300) / tol_i);
@@ -1080,8 +1080,8 @@ TEST_SUITE("operators") {
     const double h = 0.1;
     {
       points<2> x(2, 7);
-      for (index_t k = 0; k < 7; ++k)
-        x.col(k) = vec<2>((double(k) - 3.0) * h, (double(k) - 3.0) * h);  // y = x
+      // y = x
+      for (index_t k = 0; k < 7; ++k) x.col(k) = vec<2>((double(k) - 3.0) * h, (double(k) - 3.0) * h);
       const search::neighbour_list<2> nl = list_for(x, 3.1 * h);
       op::lsmps_a<2, 2> A;
       A.compute(exec::seq{}, x, nl, op::uniform_size{h});

@@ -505,8 +505,8 @@ TEST_SUITE("projection_stability") {
     // Every solve but the first (from the rest state's p = 0) starts from the previous pressures, fails and
     // is repeated from 0 (solver_params::cold_restart, one iteration again) before the LU makes it.
     CHECK(capped.counters().ppe_cold_restarts == steps - 1);
-    CHECK(capped.counters().ppe_iterations ==
-          steps + capped.counters().ppe_cold_restarts);  // one per attempt
+    // one per attempt
+    CHECK(capped.counters().ppe_iterations == steps + capped.counters().ppe_cold_restarts);
     CHECK(free.counters().ppe_cold_restarts == 0);
     CHECK(dcap <= 1e-9);
     CHECK(free.counters().ppe_fallbacks == 0);
@@ -725,9 +725,9 @@ TEST_SUITE("projection_stability") {
     const vec<2> dfull = full.col(0) - u0.col(0), dtap = tap.col(0) - u0.col(0);
     const double ratio = dtap.norm() / dfull.norm();
     CHECK(ratio == doctest::Approx(6.0 / 66.6).epsilon(1e-3));
-    CHECK(std::abs(dfull[0] * dtap[1] - dfull[1] * dtap[0]) <=
-          1e-12 * dfull.norm() * dtap.norm());  // parallel
-    CHECK((tap.rightCols(n - 1) - u0.rightCols(n - 1)).cwiseAbs().maxCoeff() ==
-          0.0);  // only the selected particle
+    // parallel
+    CHECK(std::abs(dfull[0] * dtap[1] - dfull[1] * dtap[0]) <= 1e-12 * dfull.norm() * dtap.norm());
+    // only the selected particle
+    CHECK((tap.rightCols(n - 1) - u0.rightCols(n - 1)).cwiseAbs().maxCoeff() == 0.0);
   }
 }

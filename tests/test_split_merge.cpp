@@ -344,8 +344,8 @@ TEST_SUITE("split_merge") {
     CHECK(T::decide<2>(1.42 * l0, l0) == res::want::merge);
     for (int d : {2, 3}) {
       const double bs = d == 2 ? bs2 : bs3, bm = d == 2 ? bm2 : bm3, child = std::pow(0.5, 1.0 / d);
-      CHECK(bs * l0 <=
-            bm * (child * l0) + 1e-18);  // L* < β_s L ⇒ L* < β_m L′ = L: a child never merges at once
+      // L* < β_s L ⇒ L* < β_m L′ = L: a child never merges at once
+      CHECK(bs * l0 <= bm * (child * l0) + 1e-18);
       CHECK(bm * l0 >= bs * (bm * l0));  // L* > β_m L = L′ ⇒ L* > β_s L′: a merged pair never splits
     }
   }
@@ -373,8 +373,8 @@ TEST_SUITE("split_merge") {
   TEST_CASE(
       "graded_lattice: lattices kept, volumes halved exactly, a fixed point of the trigger, no clustering") {
     using T = res::tanaka_thresholds;
-    const double L =
-        std::ldexp(1.0, -10);  // a power of two: positions, volumes L²/2^k and their sums are exact
+    // a power of two: positions, volumes L²/2^k and their sums are exact
+    const double L = std::ldexp(1.0, -10);
     const auto all = [](const vec<2>&, double) { return true; };
     const auto sorted = [](std::vector<vec<2>> v) {
       std::sort(v.begin(), v.end(), [](const vec<2>& a, const vec<2>& b) {
@@ -478,8 +478,8 @@ TEST_SUITE("split_merge") {
       "graded_lattice 3D: cubic, BCC and FCC lattices, volumes halved exactly, a fixed point of the "
       "trigger") {
     using T = res::tanaka_thresholds;
-    const double L =
-        std::ldexp(1.0, -10);  // a power of two: positions, volumes L³/2^k and their sums are exact
+    // a power of two: positions, volumes L³/2^k and their sums are exact
+    const double L = std::ldexp(1.0, -10);
     const auto all = [](const vec<3>&, double) { return true; };
     // Nearest-neighbour distances of the particle closest to c (interior) and how many are at that distance.
     const auto shell = [](const res::graded_points<3>& g, const vec<3>& c) {
@@ -1801,8 +1801,8 @@ TEST_SUITE("multires_hard") {
     check_issue_bounds(o);  // measured 0.80 √(gH), 0.494, 1.40, guard 0
     CHECK(o.Lmin <= 0.18 * L);  // the ratio was reached: L/5.66
     CHECK(o.surface_splits > 0);
-    CHECK(o.collisions >
-          0);  // the stage acted (measured 8871 colliding directed pairs to 10 √(H/g), 7807 to 8)
+    // the stage acted (measured 8871 colliding directed pairs to 10 √(H/g), 7807 to 8)
+    CHECK(o.collisions > 0);
   }
 
   TEST_CASE("multires_hard: 3D, splitting at a wall and along the floor edge, 3 sqrt(H/g)") {
@@ -1827,8 +1827,8 @@ TEST_SUITE("multires_hard") {
     check_issue_bounds(o);
     CHECK(o.Lmin <= 0.51 * L);  // the ratio was reached: three generations, L/2
     CHECK(o.splits > 100);
-    CHECK(o.umax_end <=
-          5e-2);  // decaying after the ramp (measured 2.9e-2 √(gH) at 3, 1.3 √(H/g) after it; 1.6e-2 at 4)
+    // decaying after the ramp (measured 2.9e-2 √(gH) at 3, 1.3 √(H/g) after it; 1.6e-2 at 4)
+    CHECK(o.umax_end <= 5e-2);
   }
 
   TEST_CASE(
@@ -2071,8 +2071,8 @@ TEST_SUITE("dam_break_multires") {
     CHECK(maxima.c <= 2.0);
     CHECK(multi.splits > 50);       // the surge was refined ...
     CHECK(multi.L_min <= 0.5 * L * (1.0 + 1e-12));  // ... down to the target 2 mm
-    CHECK(std::abs(multi.volume_change) <=
-          1e-13);  // volume is the stored size: events conserve it to rounding
+    // volume is the stored size: events conserve it to rounding
+    CHECK(std::abs(multi.volume_change) <= 1e-13);
     CHECK(multi.guarded == 0);
     CHECK(single.guarded == 0);
   }
@@ -2118,8 +2118,8 @@ TEST_SUITE("dam_break_multires") {
     CHECK(maxima.c <= 2.0);             // the issue's packing bound
     CHECK(r.guarded == 0);              // no particle crossed a wall, in the impact included
     CHECK(m.complete);                  // the probe got wet and its 10 ms impact window ended before T_end
-    CHECK(db.t_star(m.t_arrival) >
-          3.0);  // ... by the surge, not by a splash over the block (the coarse run's film: 2.56)
+    // ... by the surge, not by a splash over the block (the coarse run's film: 2.56)
+    CHECK(db.t_star(m.t_arrival) > 3.0);
     CHECK(r.splits > 100);
     CHECK(r.merges > 20);
     CHECK(r.L_min <= Lf * (1.0 + 1e-12));
@@ -2181,8 +2181,8 @@ TEST_SUITE("multires_hard") {
     CHECK(r.guarded == 0);             // no particle crossed a wall
     CHECK(r.splits > 100);             // the surge was refined at the far corner
     CHECK(r.L_min <= Lf * (1.0 + 1e-12));
-    CHECK(std::abs(r.volume_change) <=
-          1e-13);  // ΣV at the end + ΣV removed = ΣV0 (splits conserve it exactly)
+    // ΣV at the end + ΣV removed = ΣV0 (splits conserve it exactly)
+    CHECK(std::abs(r.volume_change) <= 1e-13);
     // The penalty of isolated particles needs the per-pair direction (the printed -grad c ignores where they
     // are).
     p.shift.penalty = regularize::penalty_direction::concentration_gradient;
@@ -2250,7 +2250,7 @@ TEST_SUITE("restart") {
     CHECK(la.splits == lb.splits);
     CHECK(bits(Eigen::Vector3d(la.dL), Eigen::Vector3d(lb.dL)));
     CHECK(bits(Eigen::Vector3d(la.dVu), Eigen::Vector3d(lb.dVu)));
-    CHECK(la.dL.norm() >
-          0.0);  // eq. 72 changes angular momentum: the component values were carried, not zeros
+    // eq. 72 changes angular momentum: the component values were carried, not zeros
+    CHECK(la.dL.norm() > 0.0);
   }
 }  // TEST_SUITE

@@ -448,8 +448,8 @@ TEST_SUITE("surface") {
       CHECK(F1[k] == F2[k]);
       CHECK((V1[k].array() == V2[k].array() || (V1[k].array().isNaN() && V2[k].array().isNaN())).all());
     }
-    CHECK(c1.pairs >
-          0);  // jitter ±0.1 l0 with unit random velocities: some pairs closer than 0.85 l0 approach
+    // jitter ±0.1 l0 with unit random velocities: some pairs closer than 0.85 l0 approach
+    CHECK(c1.pairs > 0);
     CHECK((du1.array() == du2.array()).all());
     CHECK(c1.pairs == c2.pairs);
     CHECK(c1.max_dv == c2.max_dv);
@@ -608,8 +608,8 @@ TEST_SUITE("regularize") {
       points<2> x(2, 2), u(2, 2), du;
       x.col(0).setZero();
       x.col(1) << U(rng), U(rng);
-      x.col(1) *= 0.24 * (L0 + L1) / x.col(1).norm() *
-                  (0.5 + 0.5 * std::abs(U(rng)));  // |r| ≤ 0.24 (L0 + L1) < α1 L_01
+      // |r| ≤ 0.24 (L0 + L1) < α1 L_01
+      x.col(1) *= 0.24 * (L0 + L1) / x.col(1).norm() * (0.5 + 0.5 * std::abs(U(rng)));
       u.col(0) << U(rng), U(rng);
       u.col(1) << U(rng), U(rng);
       search::neighbour_list<2> nl;

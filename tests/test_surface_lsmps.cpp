@@ -743,8 +743,8 @@ TEST_SUITE("geometric_surface") {
       MESSAGE("rule " << search::name(rule) << ": interior flagged " << interior_flagged << ", outer missed "
                       << outer_missed);
       CHECK(outer_missed == 0);
-      if (rule == search::radius_rule::own)
-        CHECK(interior_flagged > 0);  // the limitation of eq. 88 as printed (docs/surface.md)
+      // the limitation of eq. 88 as printed (docs/surface.md)
+      if (rule == search::radius_rule::own) CHECK(interior_flagged > 0);
       else
         CHECK(interior_flagged == 0);
     }

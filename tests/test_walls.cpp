@@ -199,8 +199,8 @@ TEST_SUITE("imaginary") {
 
   TEST_CASE("walls: inside a sphere (icosphere), one copy per particle and L' = L / (1 - r/R)") {
     const double L = 0.01, R = 10 * L;
-    const polygon_set<3> w(
-        geometry::sphere(vec<3>(0, 0, 0), R, 4, geometry::fluid_side::inside));  // 5120 triangles
+    // 5120 triangles
+    const polygon_set<3> w(geometry::sphere(vec<3>(0, 0, 0), R, 4, geometry::fluid_side::inside));
     const std::uint64_t seed = test_seed();
     MESSAGE("seed = " << seed << " (MPSKIT_SEED)");
     std::mt19937_64 rng(seed + 2);

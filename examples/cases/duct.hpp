@@ -131,8 +131,8 @@ duct_result run_duct_impl(const duct_config& c) {
   }
   p.time.mode = scheme::time_step_mode::fixed;
   const double Ldt = std::min(L, c.L_fine);
-  p.time.dt_fixed = p.time.dt_max =
-      0.1 * Ldt * Ldt / p.nu * (1.0 - 1e-12);  // the viscous limit (rounded below)
+  // the viscous limit (rounded below)
+  p.time.dt_fixed = p.time.dt_max = 0.1 * Ldt * Ldt / p.nu * (1.0 - 1e-12);
   geometry::polygon_options<3> opt;
   opt.fluid_seed = vec<3>(0.5 * ell, 0.5 * W, 0.5 * W);
   const geometry::polygon_set<3> walls(duct_walls(W, -4.0 * L, ell + 4.0 * L), opt);

@@ -276,8 +276,8 @@ inline boundary_chains window_boundary(const pts& bottom_cw, double centre_y, co
                                        double y_top, double ext) {
   boundary_chains r;
   const double big = 1.0;  // 1 m: beyond everything
-  const double ylo =
-      centre_y;  // the bottom gear's upper half (bottom_cw starts at its lowest vertex, outside)
+  // the bottom gear's upper half (bottom_cw starts at its lowest vertex, outside)
+  const double ylo = centre_y;
   for (pts& c : clip(bottom_cw, vec<2>(-a - ext, ylo), vec<2>(a + ext, y_top)))
     r.walls.push_back(std::move(c));
   const std::vector<pts> tc = clip(top_cw, vec<2>(-big, -big), vec<2>(big, y_top));

@@ -16,8 +16,8 @@ namespace mpskit::cases {
 /// The scene: LSMPS defaults in 3D without free-surface detection.
 struct pipe_scene : lsmps_defaults<3> {
   using surface = mpskit::scheme::no_surface;
-  using solver =
-      mpskit::ppe::bicgstab;  // ILUT: BiCGSTAB-Jacobi diverged on the left-null-vector solve (3D, pinned)
+  // ILUT: BiCGSTAB-Jacobi diverged on the left-null-vector solve (3D, pinned)
+  using solver = mpskit::ppe::bicgstab;
 };
 
 /// u(r, t) = G/(4μ)(R² − r²) − (2 G R²/μ) Σ_k J0(α_k r/R) / (α_k³ J1(α_k)) exp(−α_k² ν t / R²), α_k the zeros

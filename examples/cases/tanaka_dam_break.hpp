@@ -9,9 +9,9 @@
 // h0 = 100 mm, the same (T, Z) as cases/dam_break.hpp (Z = front/a, T = t √(2g/a), front including
 // the half extent l0/2), so read_front_series and front_band there compare it with
 // ../shared/data/dam_break_front (Martin & Moyce 1952, Koshizuka & Oka 1996).
-// With an obstacle (§5.6.2, validation-cases.md A7; tanaka_obstacle_config()): a block on the floor, 10
-// × 10 mm at mid-vessel (the paper says "mid-vessel"; centred on x = 0 is our reading), column 100 × 250 mm,
-// probe 5 mm above the block's top centre.
+// With an obstacle (§5.6.2, validation-cases.md A7; tanaka_obstacle_config()): a block on the floor,
+// 10 × 10 mm at mid-vessel (the paper says "mid-vessel"; centred on x = 0 is our reading), column
+// 100 × 250 mm, probe 5 mm above the block's top centre.
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>
@@ -110,8 +110,8 @@ double tanaka_surge_front(const points<D>& pos, const Eigen::VectorXd& diam, ind
 /// The dam break set-up: walls, fluid particles, probe and front helpers.
 struct tanaka_dam_break {
   tanaka_dam_break_config config;  ///< the numbers it was built from
-  geometry::polygon_set<2>
-      walls;       ///< open-top vessel: left wall, floor, right wall (normals into the vessel)
+  /// open-top vessel: left wall, floor, right wall (normals into the vessel)
+  geometry::polygon_set<2> walls;
   points<2> x;     ///< fluid particle positions (m)
   double L = 0.0;  ///< particle diameter (m)
 

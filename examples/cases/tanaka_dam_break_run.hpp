@@ -398,8 +398,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
     io::save_simulation(pieces.checkpoint, sim, std::move(sec));
     saving = false;
   };
-  if (!pieces.checkpoint.empty())
-    save();  // before the first step: a bad path or section name is refused at once
+  // before the first step: a bad path or section name is refused at once
+  if (!pieces.checkpoint.empty()) save();
   try {
     while (db.t_star(sim.time()) < T_end) {
       sim.step();
@@ -432,8 +432,8 @@ tanaka_dam_break_result run_tanaka_dam_break(const tanaka_dam_break_config& c, d
           return (fl[static_cast<std::size_t>(i)] & flag::isolated) == 0;
         };
         const double Z = db.front_star(sim.state().x(), d, n, counted);
-        const std::vector<char> body =
-            io::largest_body(sim.state().x(), d, n, counted);  // may throw: push after it
+        // may throw: push after it
+        const std::vector<char> body = io::largest_body(sim.state().x(), d, n, counted);
         const double Z_body = db.front_star(
             sim.state().x(), d, n, [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; });
         r.T.push_back(T);

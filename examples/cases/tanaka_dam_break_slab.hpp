@@ -37,8 +37,8 @@ enum class slab_sides {
 
 /// The slab: walls and fluid particles (volume L³ each).
 struct tanaka_slab {
-  geometry::polygon_set<3>
-      walls;                ///< left, floor, right (+ the lid: closed_top; + end walls: slab_sides::walls)
+  /// left, floor, right (+ the lid: closed_top; + end walls: slab_sides::walls)
+  geometry::polygon_set<3> walls;
   points<3> x;              ///< fluid particle positions (m)
   double L = 0.0, B = 0.0;  ///< spacing and slab depth (m)
   double W = 0.0, H = 0.0;  ///< vessel width and wall height (m): the box [0, W] × [0, B] × [0, H]
@@ -160,8 +160,8 @@ tanaka_slab_result run_tanaka_slab(const tanaka_dam_break_config& c, int layers,
       const std::vector<char> body = io::largest_body(st.x(), d, n, counted, p.domain);
       const auto in_body = [&](index_t i) { return body[static_cast<std::size_t>(i)] != 0; };
       r.T.push_back(T);
-      r.Z.push_back(tanaka_surge_front(st.x(), d, n, counted, 0.0) /
-                    c.column_width);  // the left wall at x = 0
+      // the left wall at x = 0
+      r.Z.push_back(tanaka_surge_front(st.x(), d, n, counted, 0.0) / c.column_width);
       r.Z_body.push_back(tanaka_surge_front(st.x(), d, n, in_body, 0.0) / c.column_width);
     }
   } catch (const mpskit::error& e) {

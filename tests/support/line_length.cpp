@@ -14,8 +14,8 @@ namespace {
 
 std::size_t code_points(const std::string& line) {
   std::size_t n = 0;
-  for (const unsigned char c : line)
-    if ((c & 0xC0u) != 0x80u) ++n;  // every byte that is not a UTF-8 continuation byte starts a code point
+  // every byte that is not a UTF-8 continuation byte starts a code point
+  for (const unsigned char c : line) if ((c & 0xC0u) != 0x80u) ++n;
   return n;
 }
 

@@ -28,8 +28,8 @@ struct resize_report {
   index_t ghosts_added = 0;     ///< ghosts appended
   index_t ghosts_cleared = 0;   ///< ghosts dropped
   index_t references_lost = 0;  ///< index-holding field entries that pointed at a removed particle (now npos)
-  std::vector<index_t>
-      old_to_new;  ///< new slot of each old slot, npos if gone; remap external indices with it
+  /// new slot of each old slot, npos if gone; remap external indices with it
+  std::vector<index_t> old_to_new;
   /// New index of an old index (npos stays npos).
   index_t remap(index_t old) const {
     return old < 0 ? npos : old_to_new[static_cast<std::size_t>(old)];

@@ -59,14 +59,14 @@ struct quality_report {
   index_t vertices = 0;    ///< number of vertices
   index_t elements = 0;    ///< number of elements
   index_t components = 0;  ///< connected components (through shared facets)
-  std::vector<index_t>
-      degenerate;  ///< elements of zero (or rounding-level) length/area, or repeated vertices
-  std::vector<std::pair<index_t, index_t>>
-      duplicate;                        ///< (element, earlier element with the same vertex set)
+  /// elements of zero (or rounding-level) length/area, or repeated vertices
+  std::vector<index_t> degenerate;
+  /// (element, earlier element with the same vertex set)
+  std::vector<std::pair<index_t, index_t>> duplicate;
   std::vector<facet_ref> open;          ///< facets used by one element only (open edges; 2D: polyline ends)
   std::vector<facet_ref> non_manifold;  ///< one use of each facet shared by more than two elements
-  std::vector<facet_ref>
-      inconsistent;  ///< one use of each facet shared by two elements with the same direction
+  /// one use of each facet shared by two elements with the same direction
+  std::vector<facet_ref> inconsistent;
   index_t unreferenced_vertices = 0;  ///< vertices no element uses
   index_t merged_vertices = 0;        ///< coincident vertices merged by a reader (STL)
   index_t dropped_degenerate = 0;     ///< degenerate elements removed on request

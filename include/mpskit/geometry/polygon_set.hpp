@@ -78,8 +78,8 @@ struct crossing {
 template <int D>
 requires Dimension<D>
 class polygon_set final {
- public:
-  static constexpr int dimension = D;  ///< spatial dimension
+ /// spatial dimension
+ public: static constexpr int dimension = D;
   using vector_type = vec<D>;          ///< point type
 
   /// Builds the set: validates (finite coordinates, indices in range, no degenerate element),

@@ -30,8 +30,8 @@ struct collection_crossing : crossing<D> {
 template <int D>
 requires Dimension<D>
 class wall_collection final {
- public:
-  static constexpr int dimension = D;  ///< spatial dimension
+ /// spatial dimension
+ public: static constexpr int dimension = D;
   using vector_type = vec<D>;          ///< point type
 
   /// Adds a set; returns its index.

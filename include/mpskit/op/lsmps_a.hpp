@@ -221,8 +221,8 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     return rv;
   }
 
-  /// All derivatives ⟨D_x φ⟩_i (eq. 41); with `dfdn`, constrained particles add the Neumann term c_i (eq.
-  /// 87).
+  /// All derivatives ⟨D_x φ⟩_i (eq. 41); with `dfdn`, constrained particles add the Neumann term c_i
+  /// (eq. 87).
   template <class Filter = all_neighbours>
   vector derivatives(const points<D>& x, const search::neighbour_list<D>& nl, index_t i,
                      const Eigen::Ref<const Eigen::VectorXd>& phi, const Filter& filter = {},
@@ -518,8 +518,8 @@ requires Dimension<D> &&(Order >= 1 && Order <= 3) class lsmps_a final {
     if (is_constrained(i)) {
       const vector q = neumann_vector(i);  // w(0) q
       const double w0 = K::w(0.0, re(i));
-      for (int a = 0; a < basis_size; ++a)
-        for (int b = 0; b <= a; ++b) M(a, b) += q[a] * q[b] / w0;  // w(0) q qᵀ
+      // w(0) q qᵀ
+      for (int a = 0; a < basis_size; ++a) for (int b = 0; b <= a; ++b) M(a, b) += q[a] * q[b] / w0;
     }
     return M;
   }

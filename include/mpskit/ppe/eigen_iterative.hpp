@@ -240,13 +240,11 @@ class eigen_iterative {
     }
     return r;
   }
-  long refactorised_after_failure() const {
-    return relagged_;
-  }                                                        ///< lagged solves repeated with fresh factors
+  /// lagged solves repeated with fresh factors
+  long refactorised_after_failure() const { return relagged_; }
   long factorisations() const { return factorisations_; }  ///< ILUT or ILU(0) factorisations so far
-  long mapped_reuses() const {
-    return mapped_;
-  }  ///< solves with factors kept across a change of the unknowns
+  /// solves with factors kept across a change of the unknowns
+  long mapped_reuses() const { return mapped_; }
   long breakdown_restarts() const { return breakdowns_; }  ///< solves restarted from 0 after a breakdown
   long cold_restarts() const { return colds_; }  ///< warm-started solves repeated from 0 after not converging
 

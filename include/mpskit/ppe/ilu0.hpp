@@ -151,8 +151,8 @@ class incomplete_lu0 final {
     return true;
   }
   void sort_rows() {
-    Eigen::SparseMatrix<double, Eigen::ColMajor, std::ptrdiff_t> t =
-        lu_;  // transposing copies sort the indices
+    // transposing copies sort the indices
+    Eigen::SparseMatrix<double, Eigen::ColMajor, std::ptrdiff_t> t = lu_;
     lu_ = t;
     lu_.makeCompressed();
   }

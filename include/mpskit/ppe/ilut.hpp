@@ -3,9 +3,10 @@
 /// \brief ILUT with Eigen's factors, bit for bit, in less time: `ppe::incomplete_lut` is Eigen's
 /// IncompleteLUT (Saad's dual-threshold ILUT, Saad, Iterative Methods for Sparse Linear Systems, 2nd ed.,
 /// 2003, §10.4.1, Algorithm 10.6, as Eigen 3.4 implements it: AMD ordering of A + Aᵀ; multipliers at or below
-/// the drop tolerance and U entries at or below it × the row's 2-norm dropped; with p = ⌊(⌊fill_factor
-/// × nnz(A)/n⌋ + 1)/2⌋, each row keeps its p largest multipliers in L and its p − 1 largest entries beside
-/// the diagonal in U) with its factorisation rewritten for speed and nothing else changed.
+/// the drop tolerance and U entries at or below it × the row's 2-norm dropped; with
+/// p = ⌊(⌊fill_factor × nnz(A)/n⌋ + 1)/2⌋, each row keeps its p largest multipliers in L and its p − 1
+/// largest entries beside the diagonal in U) with its factorisation rewritten for speed and nothing else
+/// changed.
 ///
 /// Two loops take most of Eigen's `IncompleteLUT::factorize` on the PPE matrices (perf on the 3D duct of
 /// label `poiseuille_multires`, 2026-12-07: 55 % and 14 % of its samples; the factorisation was 18 % of the

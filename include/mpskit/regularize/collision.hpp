@@ -143,8 +143,8 @@ collision_report sized_collisions(E e, const points<D>& x, const points<D>& u, c
 
 /// Lee et al. (2011) collision model, seed 001 eq. 13.
 class collision final {
- public:
-  using fields = field_list<>;  ///< fields beyond the core: none (uses position, velocity)
+ /// fields beyond the core: none (uses position, velocity)
+ public: using fields = field_list<>;
   using params_type = collision_params;
   /// Validates p.
   explicit collision(const params_type& p) : p_(p) { p_.validate(); }

@@ -55,8 +55,8 @@ struct shift_report {
 
 /// Fickian shifting of inner fluid particles, seed 001 eqs. 9–12.
 class fickian_shifting final {
- public:
-  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
+ /// fields beyond the core: none (uses position, flags)
+ public: using fields = field_list<>;
   using params_type = fickian_shifting_params;
   /// Validates p.
   explicit fickian_shifting(const params_type& p = {}) : p_(p) { p_.validate(); }

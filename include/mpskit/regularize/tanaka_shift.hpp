@@ -124,8 +124,8 @@ inline double target_distance(double r, double Lij, double Rij, double alpha_T) 
 ///   normal).
 /// - penalty_only (optional, x.cols() entries, set only below active.size(): real particles): rows j with
 ///   penalty_only[j] ≠ 0 that do not participate enter eq. 96's per-pair overlap penalty only (not eq. 94,
-///   not the weight sum), so an isolated particle pushes i away when r_ij < (1 − α_p) L_ij (after eqs.
-///   99–100, like every pair term) and never draws it (ours, opt-in through
+///   not the weight sum), so an isolated particle pushes i away when r_ij < (1 − α_p) L_ij (after
+///   eqs. 99–100, like every pair term) and never draws it (ours, opt-in through
 ///   lsmps_params::shift_isolated_penalty). Needs penalty_direction::pair: the printed direction −⟨∇c⟩
 ///   ignores where j is, and near the surface it points at the spray.
 /// Returns the counters; dx is resized to D × m.
@@ -245,8 +245,8 @@ tanaka_shift_report tanaka_shift_displacement(E e, const points<D>& x, const Eig
     } else {
       const vec<D> gc = grad_c.col(i);
       const double gnorm = gc.norm();
-      if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0)
-        dp = -(penalty / gnorm) * gc;  // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|
+      // eq. 96: δx** = −Σ w ε ⟨∇c⟩/|⟨∇c⟩|
+      if (gnorm > 0.0 && std::isfinite(gnorm) && penalty > 0.0) dp = -(penalty / gnorm) * gc;
     }
     if (!split) d += dp;  // eq. 98: δx = δx* + δx**, then eq. 99 below
     if (tangential_only[k]) {

@@ -137,8 +137,8 @@ graded_points<D> graded_lattice(const vec<D>& lo, const vec<D>& hi, double L, co
             emit(c.x, c.k);
             continue;
           }
-          const double q =
-              0.25 * std::ldexp(L, -c.k / D);  // a quarter of the cell's side (exact: a power of two)
+          // a quarter of the cell's side (exact: a power of two)
+          const double q = 0.25 * std::ldexp(L, -c.k / D);
           bool done = false;
           for (int r = 1; r < D && !done; ++r) {
             if (asks_split(c.x, Ls, c.k + r)) continue;

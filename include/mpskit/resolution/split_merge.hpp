@@ -199,8 +199,8 @@ struct split_merge_params {
   /// measured value for a fluid at rest.
   double wall_contact = std::numeric_limits<double>::infinity();
   /// When the contact rule refuses every direction the other rules admit, split anyway along the direction
-  /// whose nearer child comes closest to the wall, if that child is within split_merge_inputs::wall_reach
-  /// · L′ (the wall model copies it: it holds the wall through its own copies). Ours, opt-in (needs a finite
+  /// whose nearer child comes closest to the wall, if that child is within split_merge_inputs::wall_reach ·
+  /// L′ (the wall model copies it: it holds the wall through its own copies). Ours, opt-in (needs a finite
   /// wall_contact). Without it a parent whose centre lies between (wall_contact · L′ + δ) and wall_reach · L
   /// from a wall is in contact but can never keep a child within wall_contact · L′ (δ = (α_t/2) L′, eq. 67;
   /// in 2D with α_w = 1 and wall_contact = 0.75: between 0.78 L and L), so it stays coarse however small its
@@ -528,8 +528,8 @@ struct split_merge final {
         const vec<D> d = half_offset(i) * c.t;  // eq. 67 (the offset resolve_neighbour_splits assumed)
         const mat<D> G = grad_u(i);
         if (!G.allFinite()) fail("split_merge: grad_u of particle ", i, " (id ", id_of(i), ") is not finite");
-        const vec<D> a =
-            G * d;  // eq. 70: u_i′ = u_i + ⟨∇u⟩_i (x_i′ − x_i), computed once for ± (exact cancellation)
+        // eq. 70: u_i′ = u_i + ⟨∇u⟩_i (x_i′ − x_i), computed once for ± (exact cancellation)
+        const vec<D> a = G * d;
         child_data cd;
         cd.V = 0.5 * V[i];  // exact
         cd.x = {vec<D>(x.col(i) + d), vec<D>(x.col(i) - d)};
@@ -565,8 +565,8 @@ struct split_merge final {
         m.V = V[i] + V[j];                                   // eq. 74 (V = L^d)
         const vec<D> xij = in_.neighbours->displacement(x, i, j);
         m.x = merged_position(i, xij, V[j], m.V);            // eq. 72
-        m.u =
-            (V[i] * u.col(i) + V[j] * u.col(j)) / m.V;  // eq. 73 (with the stored V′: V′u′ = ΣVu to rounding)
+        // eq. 73 (with the stored V′: V′u′ = ΣVu to rounding)
+        m.u = (V[i] * u.col(i) + V[j] * u.col(j)) / m.V;
         const std::array<particle_view<D>, 2> pb{
             {{V[i], x.col(i), u.col(i)}, {V[j], vec<D>(x.col(i) + xij), u.col(j)}}};
         const std::array<particle_view<D>, 1> pa{{{m.V, m.x, m.u}}};
@@ -793,9 +793,9 @@ struct split_merge final {
       const bool contact = in_.walls && std::isfinite(p_.wall_contact) &&
                            in_.walls->signed_distance(vec<D>(x.col(i))) <= reach;
       // wall_contact_fallback: of the directions refused by the contact rule alone, the one whose nearer
-      // child is nearest the wall (the first in the e_i order on ties), if that child is within wall_reach
-      // · L′: the bound is one ulp above wall_reach · L′, so that one strict comparison admits the first
-      // direction at that distance.
+      // child is nearest the wall (the first in the e_i order on ties), if that child is within
+      // wall_reach · L′: the bound is one ulp above wall_reach · L′, so that one strict comparison admits the
+      // first direction at that distance.
       std::size_t fallback = nc;
       double fallback_distance = std::nextafter(in_.wall_reach * Lc, std::numeric_limits<double>::infinity());
       for (;;) {

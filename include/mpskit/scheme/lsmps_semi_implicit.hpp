@@ -184,8 +184,8 @@ struct own_loop_guard_params {
   double candidate_packing = 0.7;  ///< non-surface particles with packing ratio c < this are checked (the
                                    ///< failing ones had c = 0.40–0.58; c ≈ 1 inside)
   double wall_candidate_packing = 0.7;  ///< non-surface particles with wall copies and c < this are checked
-                                        ///< too (an own loop at c = 0.87 beside a wall was measured at 3.6
-                                        ///< mm; ≤ candidate_packing: no extra candidates, the default)
+                                        ///< too (an own loop at c = 0.87 beside a wall was measured at
+                                        ///< 3.6 mm; ≤ candidate_packing: no extra candidates, the default)
   double patch_radius = 1.5;  ///< patch radius in units of the particle's R_e
   int rounds = 3;             ///< checks per step, each followed by a solve when a fallback acted
   void validate() const {
@@ -481,10 +481,11 @@ struct lsmps_counters {
   long inflow = 0;              ///< particles created by pressure-boundary inflow (Tanaka §4.5.2)
   long outflow = 0;             ///< particles removed by pressure-boundary outflow (r_ip < α_o L_i)
   long outflow_behind = 0;      ///< particles removed behind a pressure face (a deviation, docs/channel.md)
-  long filter_amplifying = 0;   ///< particle-steps of the band left unfiltered: Σ|w| of their fit >
-                                ///< boundary_filter_params::max_amplification
-  long filter_tapered = 0;      ///< particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| >
-                                ///< boundary_filter_params::taper_amplification
+  /// particle-steps of the band left unfiltered:
+  /// Σ|w| of their fit > boundary_filter_params::max_amplification
+  long filter_amplifying = 0;
+  /// particle-steps of the band filtered with ε Λ_t/Σ|w|: Σ|w| > boundary_filter_params::taper_amplification
+  long filter_tapered = 0;
   long left_domain = 0;  ///< particles removed outside lsmps_params::remove_outside (counted at removal)
   /// pressure solves made (one per step, plus the active set's and the own-loop guard's repeats, but none for
   /// a system with no unknowns: so at most steps + active_set_solves + own_loop_solves; not the floating
@@ -686,9 +687,8 @@ class lsmps_semi_implicit {
   /// The right-hand side of the last PPE solve (row order ppe_rows(); known neighbours' values moved into
   /// it).
   const Eigen::VectorXd& ppe_rhs() const { return b_; }
-  const boundary::pressure_flux& last_flux() const {
-    return last_flux_;
-  }  ///< pressure-boundary fluxes of the last step
+  /// pressure-boundary fluxes of the last step
+  const boundary::pressure_flux& last_flux() const { return last_flux_; }
   /// c of the last step (real + copies), in that step's particle order: after a step that resized the state
   /// (splits, merges, inflow, outflow) entry i is no longer state() particle i. The same holds for normals(),
   /// neighbours(), op() and diameter(i).
@@ -696,9 +696,8 @@ class lsmps_semi_implicit {
   /// ρ(B_i) of the own-loop guard's last check this step, per real particle (NaN where not checked; empty
   /// when the guard is off). See own_loop_guard_params.
   const Eigen::VectorXd& own_loop_gains() const { return own_loop_gain_; }
-  const points<D>& normals() const {
-    return normal_;
-  }  ///< normals of the last step (its order: packing_ratio())
+  /// normals of the last step (its order: packing_ratio())
+  const points<D>& normals() const { return normal_; }
   const time_step_controller& time_step() const { return dt_ctrl_; }  ///< Δt controller
   /// Split/merge ledger (Scene::resolution): one closed step per step() call.
   const resolution::conservation_ledger<D>& ledger() const { return ledger_; }
@@ -901,8 +900,8 @@ class lsmps_semi_implicit {
       boundary_exchange plan = plan_boundary_exchange();
       if constexpr (has_resolution) {
         resolve_sizes(&plan.remove);
-        if (last_resolution_.splits + last_resolution_.merges > 0)
-          remap_marks(plan.remove);  // else no resize
+        // else no resize
+        if (last_resolution_.splits + last_resolution_.merges > 0) remap_marks(plan.remove);
       }
       apply_boundary_exchange(plan);
       if constexpr (has_resolution) {
@@ -1298,8 +1297,8 @@ class lsmps_semi_implicit {
         if (c.kind != geometry::feature_kind::face || !(c.distance < r)) return;
         const vec<D> ne = walls_->element_normal(c.element);
         if ((xi - c.point).dot(ne) < 0.0) return;  // behind it: the other side of a thin wall
-        for (index_t k = c0; k < c1; ++k)
-          if (ne.dot(normal_.col(k)) > 1.0 - 1e-9) return;  // this face has its own copy
+        // this face has its own copy
+        for (index_t k = c0; k < c1; ++k) if (ne.dot(normal_.col(k)) > 1.0 - 1e-9) return;
         const double into = d.dot(ne);
         if (into < 0.0) d -= into * ne;
       });
@@ -1713,8 +1712,8 @@ class lsmps_semi_implicit {
       // the 2D tank at rest then failed within 343 steps). c′ = 1 for particles with a surface particle
       // closer than the largest packing-ratio radius R_i − L_i/2 (eq. 39); a deviation, docs/lsmps_scheme.md.
       // The same next to a pressure boundary (a deviation, docs/channel.md): the boundary particles sit on
-      // the face with nothing beyond it, and an outflow column approaching them raised c above c_max, so eq.
-      // 62 pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at
+      // the face with nothing beyond it, and an outflow column approaching them raised c above c_max, so
+      // eq. 62 pushed it out through the face (measured: p −11 Pa instead of +0.02 Pa beside the outlet at
       // t = 0.02 s). The same next to a wall (a deviation, docs/lsmps_scheme.md): the copies on the wall bias
       // c (1.08–1.20 within 2 L of a wall at rest in 2D, 1.09–1.32 in 3D), so eq. 62 expanded the 3D box at
       // rest (3e-2 √(gH) within 10 steps) and, in Tanaka's dam break, held the rows above the floor at −6 to
@@ -2127,8 +2126,8 @@ class lsmps_semi_implicit {
   const geometry_type* walls_ = nullptr;
   const pressure_boundary_type* pb_ = nullptr;
   index_t nc_ = 0;  ///< end of the copies in the ghost range (pressure-boundary particles follow)
-  std::vector<index_t>
-      first_copy_;  ///< copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1]) (make_copies)
+  /// copies of particle i: [n + first_copy_[i], n + first_copy_[i + 1]) (make_copies)
+  std::vector<index_t> first_copy_;
   boundary::pressure_flux last_flux_{};
   search::neighbour_list<D> nl_;
   Eigen::VectorXd L_, c_pack_, dpdn_;
@@ -2137,10 +2136,10 @@ class lsmps_semi_implicit {
   std::vector<std::uint8_t> excluded_, surface_, copy_mark_, dirichlet_, normal_degenerate_, fixed_volume_,
       one_sided_;
   points<D> collision_du_;                // Δu of the collision stage (9c)
-  std::vector<std::uint8_t>
-      active_set_;  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
-  std::vector<particle_id>
-      held_ids_;  // active_set_warm_start: the set the last pressure solve ended with (ids)
+  // held at p = 0 by the active set this step (stage 8; copies too: active_set_copies)
+  std::vector<std::uint8_t> active_set_;
+  // active_set_warm_start: the set the last pressure solve ended with (ids)
+  std::vector<particle_id> held_ids_;
   std::vector<index_t> release_candidates_,
       release_;  // active_set_release: the set's fluid members, those released
   std::vector<op::row_entries> release_buf_;            // their rows (capacity kept across steps)
@@ -2158,10 +2157,10 @@ class lsmps_semi_implicit {
   ppe::solve_report last_solve_{};
   long solves_before_step_ = 0;  // counters().ppe_solves when this step's pressure stage began
   std::vector<std::array<std::int64_t, 3>> key_, prev_key_;  // unknowns' identities (same_unknowns_as_before)
-  std::vector<index_t>
-      to_previous_;  // row of each unknown in the previous system (ilut_reuse_across_changes)
-  bool floating_before_ =
-      false;  // the previous step had floating parts (its adjoint solver holds their factors)
+  // row of each unknown in the previous system (ilut_reuse_across_changes)
+  std::vector<index_t> to_previous_;
+  // the previous step had floating parts (its adjoint solver holds their factors)
+  bool floating_before_ = false;
   lsmps_counters c_{};
   resolution::conservation_ledger<D> ledger_{};
   std::vector<flag::type> frozen_flags_;  // the state's flags with frozen particles marked isolated

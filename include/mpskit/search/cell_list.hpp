@@ -108,16 +108,13 @@ class cell_list {
   const vec<D>& cell_size() const { return h_; }            ///< cell edge per axis
   const vec<D>& origin() const { return lo_; }              ///< lower corner of the grid
   const domain<D>& dom() const { return dom_; }             ///< periodic axes
-  index_t cell_begin(index_t c) const {
-    return start_[static_cast<std::size_t>(c)];
-  }  ///< first slot of cell c
-  index_t cell_end(index_t c) const {
-    return start_[static_cast<std::size_t>(c + 1)];
-  }  ///< one past its last slot
+  /// first slot of cell c
+  index_t cell_begin(index_t c) const { return start_[static_cast<std::size_t>(c)]; }
+  /// one past its last slot
+  index_t cell_end(index_t c) const { return start_[static_cast<std::size_t>(c + 1)]; }
   index_t cell_of(index_t i) const { return cell_of_[static_cast<std::size_t>(i)]; }  ///< cell of particle i
-  index_t slot_of(index_t i) const {
-    return slot_of_[static_cast<std::size_t>(i)];
-  }  ///< sorted slot of particle i
+  /// sorted slot of particle i
+  index_t slot_of(index_t i) const { return slot_of_[static_cast<std::size_t>(i)]; }
   /// Sorted slot → particle index: the permutation that puts a state in cell order.
   const std::vector<index_t>& order() const { return order_; }
 

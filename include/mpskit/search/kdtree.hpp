@@ -42,8 +42,8 @@ class kdtree {
     tree_->radiusSearch(q.data(), R * R, hits, params);
     out.clear();
     out.reserve(hits.size());
-    for (const auto& h : hits)
-      if (within(h.second, R * R)) out.push_back(h.first);  // mpskit's rule, stated again here
+    // mpskit's rule, stated again here
+    for (const auto& h : hits) if (within(h.second, R * R)) out.push_back(h.first);
     std::sort(out.begin(), out.end());
   }
 

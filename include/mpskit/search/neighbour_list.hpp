@@ -39,8 +39,8 @@ struct build_options {
 template <int D>
   requires Dimension<D>
 class neighbour_list {
- public:
-  using neighbour_t = std::int32_t;  ///< stored index type (halves memory traffic of sweeps)
+ /// stored index type (halves memory traffic of sweeps)
+ public: using neighbour_t = std::int32_t;
 
   /// Builds rows for all columns of x (real and ghost) with build radius R_i·(1 + skin) per particle
   /// and pair rule max; `visible(i, j)` may reject pairs (walls thinner than the support).

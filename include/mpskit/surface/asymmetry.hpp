@@ -74,8 +74,8 @@ struct asymmetry_params {
 
 /// |F_i| > α_F |F|⁰ (seed 004 eqs. 14–15).
 class asymmetry final {
- public:
-  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
+ /// fields beyond the core: none (uses position, flags)
+ public: using fields = field_list<>;
   using params_type = asymmetry_params;
   /// Validates p.
   explicit asymmetry(const params_type& p = {}) : p_(p) { p_.validate(); }

@@ -36,8 +36,8 @@ struct neighbour_count_params {
 
 /// N_i < β N0.
 class neighbour_count final {
- public:
-  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
+ /// fields beyond the core: none (uses position, flags)
+ public: using fields = field_list<>;
   using params_type = neighbour_count_params;
   /// Validates p.
   explicit neighbour_count(const params_type& p = {}) : p_(p) { p_.validate(); }

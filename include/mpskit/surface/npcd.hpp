@@ -53,8 +53,8 @@ struct npcd_measure {
 
 /// NPCD free-surface detection (seed 001 eqs. 14–16, "or" reading).
 class npcd final {
- public:
-  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
+ /// fields beyond the core: none (uses position, flags)
+ public: using fields = field_list<>;
   using params_type = npcd_params;
   /// Validates p.
   explicit npcd(const params_type& p = {}) : p_(p) { p_.validate(); }

@@ -33,8 +33,8 @@ struct pnd_threshold_params {
 
 /// n_i < α_d n0 (Tanaka 2018 eq. 20; n0 of the chosen support, op::mps).
 class pnd_threshold final {
- public:
-  using fields = field_list<>;  ///< fields beyond the core: none (uses position, flags)
+ /// fields beyond the core: none (uses position, flags)
+ public: using fields = field_list<>;
   using params_type = pnd_threshold_params;
   /// Validates p.
   explicit pnd_threshold(const params_type& p = {}) : p_(p) { p_.validate(); }

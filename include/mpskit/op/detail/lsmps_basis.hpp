@@ -355,8 +355,8 @@ factor_result factorise(const Mat& M, int P, SizeAt size_at, int p_min, bool low
   for (int k = 0; k < regular_size; ++k) F(k, k) += regularisation * mx;
   if (ldlt_pivoted(F, regular_size, 0.0).passed == regular_size) {
     ldlt_inverse(F, regular_size, out);
-    res.condition =
-        cond1(M, out, regular_size);  // of the unshifted block against the shifted inverse: indicative
+    // of the unshifted block against the shifted inverse: indicative
+    res.condition = cond1(M, out, regular_size);
   } else {
     out.setZero();
   }
