@@ -44,6 +44,7 @@
 #include <limits>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -94,15 +95,16 @@ bench::run_outcome outcome_of(const cases::tanaka_dam_break_result& r,
       << " Pa, guard activations " << r.guarded << ", closest pair " << r.min_pair_ratio
       << " L, largest speed " << r.u_max << " m/s";
   // Where the PPE's time goes (docs/performance.md "Through the far-wall impact"): solves per step (the
-  // active set and the own-loop guard repeat them), iterations per solve (all, the steps' first solves, the
-  // repeats), and incomplete factorisations (ILU(0)) per step.
-  if (r.ppe_solves > r.ppe_repeat_solves && r.steps > 0) {
-    const long first = r.ppe_solves - r.ppe_repeat_solves;
+  // active set and the own-loop guard repeat them), iterations per solve (all; the steps' first solves and
+  // the repeats when there were repeats: a run loaded from a file written before they were counted has
+  // none), and incomplete factorisations (ILU(0)) per step.
+  if (r.ppe_solves > 0 && r.steps > 0) {
     log << ", PPE solves per step " << double(r.ppe_solves) / double(r.steps) << ", iterations per solve "
-        << double(r.ppe_iterations) / double(r.ppe_solves) << " (first solves "
-        << double(r.ppe_iterations - r.ppe_repeat_iterations) / double(first) << ", repeats "
-        << (r.ppe_repeat_solves > 0 ? double(r.ppe_repeat_iterations) / double(r.ppe_repeat_solves) : 0.0)
-        << "), factorisations per step " << double(r.ppe_factorisations) / double(r.steps);
+        << double(r.ppe_iterations) / double(r.ppe_solves);
+    if (r.ppe_repeat_solves > 0)
+      log << " (first solves " << r.first_solve_iterations() << ", repeats " << r.repeat_solve_iterations()
+          << ")";
+    log << ", factorisations per step " << double(r.ppe_factorisations) / double(r.steps);
   }
   log << "\n";
   bench::run_outcome out;
@@ -169,7 +171,8 @@ class run_cache {
       f << "key " << key << "\ncounters " << r.particles << ' ' << r.particles_end << ' ' << r.steps << ' '
         << r.wall_seconds << ' ' << r.ppe_iterations << ' ' << r.guarded << ' ' << r.min_pair_ratio << ' '
         << r.u_max << ' ' << r.failed << ' ' << r.T_failed << ' ' << r.ppe_solves << ' '
-        << r.ppe_factorisations << "\nfailure " << one_line(r.failure) << "\nfront " << r.T.size() << "\n";
+        << r.ppe_factorisations << ' ' << r.ppe_repeat_solves << ' ' << r.ppe_repeat_iterations
+        << "\nfailure " << one_line(r.failure) << "\nfront " << r.T.size() << "\n";
       for (std::size_t k = 0; k < r.T.size(); ++k) f << r.T[k] << ' ' << r.Z[k] << '\n';
       f << "probe " << r.probe_t.size() << "\n";
       for (std::size_t k = 0; k < r.probe_t.size(); ++k) f << r.probe_t[k] << ' ' << r.probe_p[k] << '\n';
@@ -195,12 +198,13 @@ class run_cache {
            " holds another configuration:\n  file: ", line.substr(4), "\n  this: ", key,
            "\n(use another --series directory or remove the file)");
     std::vector<double> v;
-    // n numbers, or (n_older > 0) n_older of them: a file written before the last fields were added.
-    const auto numbers = [&](const std::string& text, std::size_t n, std::size_t n_older = 0) {
+    // n numbers, or as many as one of `older` (files written before the last fields were added).
+    const auto numbers = [&](const std::string& text, std::size_t n,
+                             std::initializer_list<std::size_t> older = {}) {
       v.clear();
       const char* s = text.c_str();
       for (std::size_t k = 0; k < n; ++k) {
-        if (k == n_older && n_older > 0) {
+        if (std::find(older.begin(), older.end(), k) != older.end()) {
           const char* t = s;
           while (*t == ' ') ++t;
           if (*t == '\0') break;
@@ -220,7 +224,8 @@ class run_cache {
       return line.substr(head.size());
     };
     cases::tanaka_dam_break_result r;
-    numbers(section("counters"), 12, 10);  // 10: written before 2026-12-07 (no PPE solves and factorisations)
+    // 10: written before 2026-12-07 (no PPE solves and factorisations); 12: before the repeated solves
+    numbers(section("counters"), 14, {10, 12});
     r.particles = static_cast<index_t>(v[0]);
     r.particles_end = static_cast<index_t>(v[1]);
     r.steps = static_cast<long>(v[2]);
@@ -231,9 +236,13 @@ class run_cache {
     r.u_max = v[7];
     r.failed = v[8] != 0.0;
     r.T_failed = v[9];
-    if (v.size() == 12) {
+    if (v.size() >= 12) {
       r.ppe_solves = static_cast<long>(v[10]);
       r.ppe_factorisations = static_cast<long>(v[11]);
+    }
+    if (v.size() == 14) {
+      r.ppe_repeat_solves = static_cast<long>(v[12]);
+      r.ppe_repeat_iterations = static_cast<long>(v[13]);
     }
     r.failure = section("failure");
     const auto pairs = [&](const char* name, std::vector<double>& a, std::vector<double>& b) {

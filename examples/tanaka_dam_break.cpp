@@ -532,18 +532,14 @@ int main(int argc, char** argv) {
         "  PPE solves restarted from 0 after a Krylov breakdown %ld, after not converging from the warm "
         "start %ld (docs/run.md); shifted velocities clipped %ld; colliding pairs %ld\n",
         r.ppe_breakdown_restarts, r.ppe_cold_restarts, r.shift_velocity_clipped, r.collisions);
-    if (r.ppe_solves > 0) {
-      const long first = r.ppe_solves - r.ppe_repeat_solves;
+    if (r.ppe_solves > 0)
       std::printf(
           "  PPE solves %ld (%.2f per step: the active set's and the own-loop guard's repeats), %.1f "
           "iterations per solve (the steps' first solves %.1f, the repeats %.1f), incomplete "
           "factorisations %ld\n",
           r.ppe_solves, double(r.ppe_solves) / double(std::max(1L, r.steps)),
-          double(r.ppe_iterations) / double(r.ppe_solves),
-          double(r.ppe_iterations - r.ppe_repeat_iterations) / double(std::max(1L, first)),
-          r.ppe_repeat_solves > 0 ? double(r.ppe_repeat_iterations) / double(r.ppe_repeat_solves) : 0.0,
-          r.ppe_factorisations);
-    }
+          double(r.ppe_iterations) / double(r.ppe_solves), r.first_solve_iterations(),
+          r.repeat_solve_iterations(), r.ppe_factorisations);
     if (fallback)
       std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
     if (std::isfinite(m.t_arrival))

@@ -1085,7 +1085,7 @@ TEST_SUITE("restart") {
     CHECK(fresh.counters().steps == 1);
   }
   TEST_CASE(
-      "restart: LSMPS counters section of 41 values, or of 24 to 40 (older files), the missing ones read as "
+      "restart: LSMPS counters section of 43 values, or of 24 to 42 (older files), the missing ones read as "
       "0") {
     mpskit::test::scratch tmp("mpskit_test_channel", "counters");
     cases::multi_diameter_setup su = cases::make_multi_diameter(restart_channel());

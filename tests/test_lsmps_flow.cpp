@@ -1526,7 +1526,8 @@ TEST_SUITE("dam_break_lsmps") {
     // and at most at every solve and lagged retry (measured: 348 factorisations for 351 solves over 177
     // steps); factorised at every solve (ilut_reuse = 1: no lag, no retry), exactly once per solve. The
     // repeated solves (ppe_repeat_solves, ppe_repeat_iterations) are those after each step's first: the
-    // repeats made, with part of the iterations (so the first solves are one per step).
+    // repeats made (with the identity above, the first solves are one per step), with part of the
+    // iterations.
     scheme::lsmps_params<2> fresh_p = p;
     fresh_p.solver.ilut_reuse = 1;
     const auto fresh = cases::run_tanaka_dam_break<cases::tanaka_ilu0_scene>(c, 1.0, fresh_p);
@@ -1538,7 +1539,6 @@ TEST_SUITE("dam_break_lsmps") {
       CHECK(r->ppe_solves == r->steps + r->active_set_solves + r->own_loop_solves);
       CHECK(r->active_set_solves + r->own_loop_solves > 0);  // the repeats are exercised
       CHECK(r->ppe_repeat_solves == r->active_set_solves + r->own_loop_solves);
-      CHECK(r->ppe_solves - r->ppe_repeat_solves == r->steps);
       CHECK(r->ppe_repeat_iterations > 0);
       CHECK(r->ppe_repeat_iterations < r->ppe_iterations);
     }

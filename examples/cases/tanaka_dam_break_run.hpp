@@ -105,6 +105,17 @@ struct tanaka_dam_break_result : tanaka_run_counts {
   double T_reached = 0.0;            ///< T at the end of this piece
   double resumed_at = -1.0;          ///< T the run was resumed from (< 0: not resumed)
   double wall_seconds_before = 0.0;  ///< wall time of the earlier pieces (s; included in wall_seconds)
+  /// Iterations per solve of the steps' first pressure solves (NaN without a solve).
+  double first_solve_iterations() const {
+    const long first = ppe_solves - ppe_repeat_solves;
+    return first > 0 ? double(ppe_iterations - ppe_repeat_iterations) / double(first)
+                     : std::numeric_limits<double>::quiet_NaN();
+  }
+  /// Iterations per solve of the repeated ones, the active set's and the own-loop guard's (NaN without one).
+  double repeat_solve_iterations() const {
+    return ppe_repeat_solves > 0 ? double(ppe_repeat_iterations) / double(ppe_repeat_solves)
+                                 : std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 /// Long runs in pieces (cases/run_pieces.hpp). The checkpoint holds the particles, the scheme's state and the
