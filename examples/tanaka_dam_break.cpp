@@ -532,14 +532,19 @@ int main(int argc, char** argv) {
         "  PPE solves restarted from 0 after a Krylov breakdown %ld, after not converging from the warm "
         "start %ld (docs/run.md); shifted velocities clipped %ld; colliding pairs %ld\n",
         r.ppe_breakdown_restarts, r.ppe_cold_restarts, r.shift_velocity_clipped, r.collisions);
-    if (r.ppe_solves > 0)
+    if (r.ppe_solves > 0) {
+      // The split into first solves and repeats only for a run with repeats (without one the repeats'
+      // mean is NaN and the first solves' is the mean above).
+      char split[96] = "";
+      if (r.ppe_repeat_solves > 0)
+        std::snprintf(split, sizeof split, " (the steps' first solves %.1f, the repeats %.1f)",
+                      r.first_solve_iterations(), r.repeat_solve_iterations());
       std::printf(
           "  PPE solves %ld (%.2f per step: the active set's and the own-loop guard's repeats), %.1f "
-          "iterations per solve (the steps' first solves %.1f, the repeats %.1f), incomplete "
-          "factorisations %ld\n",
+          "iterations per solve%s, incomplete factorisations %ld\n",
           r.ppe_solves, double(r.ppe_solves) / double(std::max(1L, r.steps)),
-          double(r.ppe_iterations) / double(r.ppe_solves), r.first_solve_iterations(),
-          r.repeat_solve_iterations(), r.ppe_factorisations);
+          double(r.ppe_iterations) / double(r.ppe_solves), split, r.ppe_factorisations);
+    }
     if (fallback)
       std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
     if (std::isfinite(m.t_arrival))
