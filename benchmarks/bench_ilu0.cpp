@@ -1,6 +1,6 @@
 // BiCGSTAB with ILU(0) (ppe/ilu0.hpp, ppe::bicgstab_ilu0) against the LSMPS default BiCGSTAB-Jacobi on
-// Tanaka's 2D dam break (examples/cases/tanaka_dam_break_run.hpp, lsmps_impact_params, the options of issue
-// #9's tests):
+// Tanaka's 2D dam break (examples/cases/tanaka_dam_break_run.hpp, lsmps_impact_params, the options of
+// issue #9's tests):
 //   dam4: L = 4 mm refined 2:1 toward the far corner (the dam_break_multires test's multi-resolution run), to
 //   T = 1.5; dam2: L = 2 mm, single resolution (5000 particles), to T = 0.6.
 // Settings: Jacobi; ILU(0) with the default lag (solver_params::ilut_reuse = 4, same unknowns only); ILU(0)

@@ -631,9 +631,9 @@ TEST_SUITE("multi_diameter_channel_multires") {
     // drop (0.45 m/s). The start-up too: over the whole run |u| ≤ 0.6 m/s (measured 0.364 to 0.25 s, 0.405 to
     // 0.3 s; p in [−455, 870] Pa to 0.25 s; [−622, 870] Pa with deviation 14 of docs/lsmps_scheme.md; with
     // thin_walls off, the case's setting since 2026-11-29: balance 0.07 %, |u| 0.366 m/s, p in [−744,
-    // 1209] Pa). Before fluid rows with a diagonal ≥ 0 became p = 0 rows (docs/lsmps_scheme.md, deviation
-    // 10), the first splits at the convex corner (60, −5) mm gave p in [−8.8, +38] kPa and |u| 0.73 m/s at
-    // t ≈ 8 ms.
+    // 1209] Pa). Before fluid rows with a diagonal ≥ 0 became p = 0 rows (docs/lsmps_scheme.md,
+    // deviation 10), the first splits at the convex corner (60, −5) mm gave p in [−8.8, +38] kPa and |u|
+    // 0.73 m/s at t ≈ 8 ms.
     CHECK(r.u_max_window <= 1.0);
     CHECK(r.u_max <= 0.6);
   }

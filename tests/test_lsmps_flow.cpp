@@ -516,11 +516,11 @@ TEST_SUITE("hydrostatic_polygon") {
       "Neumann-point walls with nothing to solve: two surface particles moving into a wall lose their normal "
       "velocity") {
     // Every fluid particle a surface one (p = 0), so the PPE has no unknown, but the correction's gradient
-    // still carries the copies' Neumann data ∂p/∂n = ρ u′·n/Δt (eq. 83, copy_row = neumann_points, deviation
-    // 11). A vertical pair 0.5 L from the left wall, far from the floor, moving into the wall at 0.1 m/s:
-    // both have a copy, one fluid neighbour and an open cone away from the wall (surface, not isolated).
-    // Until 2026-11-29 the Neumann data was set after the no-unknown return, and this first step read an
-    // empty vector (a crash).
+    // still carries the copies' Neumann data ∂p/∂n = ρ u′·n/Δt (eq. 83, copy_row = neumann_points,
+    // deviation 11). A vertical pair 0.5 L from the left wall, far from the floor, moving into the wall at
+    // 0.1 m/s: both have a copy, one fluid neighbour and an open cone away from the wall (surface, not
+    // isolated). Until 2026-11-29 the Neumann data was set after the no-unknown return, and this first step
+    // read an empty vector (a crash).
     const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
     scheme::lsmps_state<2> s0(2);

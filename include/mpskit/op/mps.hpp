@@ -38,8 +38,8 @@ struct mps_params {
   double l0 = 0.0;        ///< initial particle spacing (m)
   double re_small = 2.1;  ///< gradient / divergence / number-density radius, in l0 (or in L_i)
   double re_large = 3.1;  ///< Laplacian radius, in l0 (or in L_i)
-  /// Pair radius with per-particle sizes (ignored with one l0): own R_i, pair mean (Tang & Wan eqs.
-  /// 16–17, Tanaka eq. 28) or max.
+  /// Pair radius with per-particle sizes (ignored with one l0): own R_i, pair mean (Tang & Wan
+  /// eqs. 16–17, Tanaka eq. 28) or max.
   search::radius_rule rule = search::radius_rule::own;
   mps_normalisation normalisation = mps_normalisation::reference_lattice;  ///< n0/λ0 source
   /// Throws mpskit::error listing every bad value.

@@ -240,9 +240,9 @@ struct lsmps_params {
   /// α_g, α_T, α_p, α_S (eqs. 93–100); the penalty of eq. 96 acts per pair (a deviation, docs/solver.md)
   regularize::tanaka_shift_params shift = pair_penalty_shift();
   /// Eq. 99 also along a second wall a particle is copied onto (a 3D edge or corner, a 2D corner; ours,
-  /// opt-in, docs/lsmps_scheme.md deviation 12): the 3D tanks at rest stay quiet (the 60° prism meets issue
-  /// #4's criteria), but as the default the 3D duct with pressure faces and a 3D tank refined along an edge
-  /// fail.
+  /// opt-in, docs/lsmps_scheme.md deviation 12): the 3D tanks at rest stay quiet (the 60° prism meets
+  /// issue #4's criteria), but as the default the 3D duct with pressure faces and a 3D tank refined along an
+  /// edge fail.
   bool shift_second_wall = false;
   /// Eq. 99 one-sided for the faces whose copies were merged away (ours, default on; docs/lsmps_scheme.md
   /// deviation 14): a particle with a copy keeps no component of δx into any face within α_w L_i seen from
@@ -303,10 +303,10 @@ struct lsmps_params {
   /// copies of particles leaving a wall were solved at −1.4·10⁷ Pa in the dam break (3.8 mm),
   /// docs/lsmps_scheme.md.
   bool active_set_copies = false;
-  /// The active set also releases (ours, opt-in; needs active_set_solves > 0; docs/lsmps_scheme.md deviation
-  /// 13): after each repeated solve, a fluid particle held at p = 0 whose own row, evaluated at that
-  /// solution, is not met in the compressing direction (w = b − Σ_j a_ij p_j < 0 with a_ii < 0: freed, it
-  /// would take p > 0) leaves the set, and the PPE is built and solved again. The set then satisfies the
+  /// The active set also releases (ours, opt-in; needs active_set_solves > 0; docs/lsmps_scheme.md
+  /// deviation 13): after each repeated solve, a fluid particle held at p = 0 whose own row, evaluated at
+  /// that solution, is not met in the compressing direction (w = b − Σ_j a_ij p_j < 0 with a_ii < 0: freed,
+  /// it would take p > 0) leaves the set, and the PPE is built and solved again. The set then satisfies the
   /// complementarity p ≥ 0, w ≥ 0, p w = 0 at the fluid rows (the primal–dual active-set iteration) instead
   /// of only p ≥ 0. Without it 63 % of the set's particles violate w ≥ 0 in the main example's fine run, and
   /// the set alternates from step to step (a period-two cycle of the pressures). Wall copies are only joined
