@@ -9,7 +9,8 @@
 // wall-crossing guard activations and the first impact at the probe beside the paper's 4433 Pa.
 //
 // Usage: tanaka_dam_break [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated]
-//                         [--lid mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U]
+//                         [--lid mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback | --ilu0]
+//                         [--trace U]
 //                         [--slab N [--slab-walls]] [--checkpoint FILE [--every S] [--stop-after S]]
 //                         [--resume FILE] [--out DIR] [--data DIR]
 // The defaults (since 2026-12-03) are the main example's options, scheme::lsmps_impact_params<2>(): the wall
@@ -59,6 +60,11 @@
 //            BiCGSTAB-Jacobi solve fails (not converged within the cap, or broken down) is solved by
 //            SparseLU, counted in the summary; a run whose iterative solves all succeed is the same as
 //            without it. 2D only.
+//   --ilu0   the scene with ppe::bicgstab_ilu0 (BiCGSTAB with ILU(0), cases/tanaka_ilu0_scene.hpp) in place
+//            of BiCGSTAB-Jacobi: the solver docs/performance.md "ILU(0) for the LSMPS PPE" recommends from
+//            about 5000 particles (2 mm and finer here). Both solve to the same tolerance, but the dam break
+//            amplifies the different digits after the impact, so a run with it is not the Jacobi run (docs/
+//            lsmps_scheme.md). Not with --fallback. 2D only.
 //   --slab   N: the 3D slab instead (cases/tanaka_dam_break_slab.hpp: the vessel extruded over N layers,
 //            periodic in y, or between two end walls with --slab-walls; ours) with
 //            scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2, and the
@@ -88,6 +94,7 @@
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "cases/cli.hpp"
@@ -95,6 +102,7 @@
 #include "cases/tanaka_dam_break_run.hpp"
 #include "cases/tanaka_dam_break_slab.hpp"
 #include "cases/tanaka_fallback_scene.hpp"
+#include "cases/tanaka_ilu0_scene.hpp"
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
@@ -205,14 +213,15 @@ int main(int argc, char** argv) {
   bool slab_asked = false, slab_walls = false;
   bool trace = false, collide_isolated = defaults.collision.isolated,
        shift_isolated = defaults.shift_isolated_penalty;
-  bool obstacle = false, collide_isolated_asked = false, fallback = false;
+  bool obstacle = false, collide_isolated_asked = false, fallback = false, ilu0 = false;
   cases::tanaka_pieces pieces;
   std::string walls_name = cases::tanaka_impact_walls, data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
   const auto usage = [&]() {
     std::fprintf(
         stderr,
         "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid "
-        "mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback] [--trace U] [--slab N [--slab-walls]] "
+        "mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback | --ilu0] [--trace U] [--slab N "
+        "[--slab-walls]] "
         "[--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--out DIR] [--data DIR]\n",
         argv[0]);
     return 2;
@@ -222,6 +231,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
     else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
     else if (!std::strcmp(argv[a], "--fallback")) fallback = true;
+    else if (!std::strcmp(argv[a], "--ilu0")) ilu0 = true;
     else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
     else if (!std::strcmp(argv[a], "--no-collide-isolated"))
       collide_isolated = collide_isolated_asked = false;
@@ -263,6 +273,8 @@ int main(int argc, char** argv) {
     if (!(T_end > 0.0 && std::isfinite(T_end))) fail("tanaka_dam_break: --T ", T_end, ": must be > 0");
     if (trace && !(trace_speed >= 0.0 && std::isfinite(trace_speed)))
       fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
+    if (fallback && ilu0)
+      fail("tanaka_dam_break: --fallback and --ilu0 name two solvers (the fallback's primary is Jacobi)");
     pieces.validate("tanaka_dam_break");  // --every and --stop-after need --checkpoint; both finite, >= 0
     const cases::tanaka_wall_variant& walls =
         cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
@@ -283,10 +295,10 @@ int main(int argc, char** argv) {
     if (slab_asked) {  // the 3D slab: its own path (the probe, the trace and the pictures are 2D)
       if (!(slab >= 1.0 && slab <= 1000.0 && slab == std::floor(slab)))
         fail("tanaka_dam_break: --slab ", slab, ": the number of layers must be a whole number in [1, 1000]");
-      if (obstacle || trace || fallback || !pieces.checkpoint.empty() || !pieces.resume.empty())
+      if (obstacle || trace || fallback || ilu0 || !pieces.checkpoint.empty() || !pieces.resume.empty())
         fail(
-            "tanaka_dam_break: --slab takes neither --obstacle, --trace, --fallback, --checkpoint nor "
-            "--resume (2D only)");
+            "tanaka_dam_break: --slab takes neither --obstacle, --trace, --fallback, --ilu0, --checkpoint "
+            "nor --resume (2D only)");
     } else if (slab_walls) {
       fail("tanaka_dam_break: --slab-walls needs --slab N");
     }
@@ -369,7 +381,8 @@ int main(int argc, char** argv) {
         "walls %s, collision %.17g, collide_isolated %d, shift_isolated %d, fallback %d, trace %.17g",
         walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback),
         trace ? trace_speed : -1.0);
-    const std::string options = options_text;
+    // --ilu0 appended only when given, so that the checkpoints of runs without it still load
+    const std::string options = std::string(options_text) + (ilu0 ? ", ilu0 1" : "");
     // The output's state (section "example.output"): the next frame's time, the picture's T, the last PPE
     // count, the traces written, the ParaView files written and the last one's time, the trace file's length
     // (flushed per trace; -1 without --trace). The last three are read into these places: the series' length
@@ -438,11 +451,15 @@ int main(int argc, char** argv) {
         obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()),
         walls.name.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
         shift_isolated ? ", isolated particles in the shifting penalty" : "",
-        fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : "", T_end);
+        fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : (ilu0 ? ", BiCGSTAB-ILU(0)" : ""), T_end);
+    const auto run = [&](auto scene) {  // scene: std::type_identity<the scene>
+      using Scene = typename decltype(scene)::type;
+      return cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true, observe, pieces);
+    };
     const cases::tanaka_dam_break_result r =
-        fallback
-            ? cases::run_tanaka_dam_break<cases::tanaka_fallback_scene>(cfg, T_end, p, true, observe, pieces)
-            : cases::run_tanaka_dam_break(cfg, T_end, p, true, observe, pieces);
+        fallback ? run(std::type_identity<cases::tanaka_fallback_scene>{})
+        : ilu0   ? run(std::type_identity<cases::tanaka_ilu0_scene>{})
+                 : run(std::type_identity<lsmps_defaults<2>>{});
     progress.finish();
     const double wall = r.wall_seconds;  // the earlier pieces' included
     const std::vector<double>& probe_t = obstacle ? obstacle_t : r.probe_t;
@@ -547,14 +564,16 @@ int main(int argc, char** argv) {
     }
     if (fallback)
       std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
-    if (std::isfinite(m.t_arrival))
+    if (std::isfinite(m.t_arrival)) {
+      // NaN when no step number in the window is a multiple of 100 (coarse runs: 79 steps at 5 mm)
+      char sparse[64] = "no 100th step in the window";
+      if (std::isfinite(m.peak_sparse)) std::snprintf(sparse, sizeof sparse, "%.0f Pa", m.peak_sparse);
       std::printf(
           "  probe (%.0f, %.0f) mm wet at T = %.3f; over the next 10 ms%s: impulse %.2f Pa s, peak %.0f Pa, "
-          "2 ms-filtered "
-          "peak %.0f Pa, every-100-steps peak %.0f Pa (Tanaka: %.0f Pa at 1 mm, every 100 steps)\n",
+          "2 ms-filtered peak %.0f Pa, every-100-steps peak %s (Tanaka: %.0f Pa at 1 mm, every 100 steps)\n",
           probe[0] * 1e3, probe[1] * 1e3, db.t_star(m.t_arrival), m.complete ? "" : " (window incomplete)",
-          m.impulse, m.peak, m.peak_filtered, m.peak_sparse, cases::tanaka_dam_break::paper_peak_pressure);
-    else
+          m.impulse, m.peak, m.peak_filtered, sparse, cases::tanaka_dam_break::paper_peak_pressure);
+    } else
       std::printf("  probe (%.0f, %.0f) mm: dry to the end\n", probe[0] * 1e3, probe[1] * 1e3);
     if (trace)
       std::printf(
