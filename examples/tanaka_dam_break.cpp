@@ -63,8 +63,10 @@
 //   --ilu0   the scene with ppe::bicgstab_ilu0 (BiCGSTAB with ILU(0), cases/tanaka_ilu0_scene.hpp) in place
 //            of BiCGSTAB-Jacobi: the solver docs/performance.md "ILU(0) for the LSMPS PPE" recommends from
 //            about 5000 particles (2 mm and finer here). Both solve to the same tolerance, but the dam break
-//            amplifies the different digits after the impact, so a run with it is not the Jacobi run (docs/
-//            lsmps_scheme.md). Not with --fallback. 2D only.
+//            amplifies the different digits after the impact, so a run with it is not the Jacobi run
+//            (docs/performance.md, same section). Its factors are lagged (solver_params::ilut_reuse), so a
+//            resumed run agrees with the uninterrupted one to the solver's tolerance, not bitwise
+//            (docs/run.md). Not with --fallback. 2D only.
 //   --slab   N: the 3D slab instead (cases/tanaka_dam_break_slab.hpp: the vessel extruded over N layers,
 //            periodic in y, or between two end walls with --slab-walls; ours) with
 //            scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2, and the

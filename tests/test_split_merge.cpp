@@ -1998,8 +1998,8 @@ TEST_SUITE("dam_break_multires") {
     // Issue #9's [dam_break_multires] at a CI spacing: L = 4 mm; L* = 2 mm within 50 mm of (200, 0) mm, a
     // linear ramp to 1.05 L at 150 mm (the paper: 1–5 mm by the distance from that corner, its Fig. 24b is
     // not in the text; ours), wall_contact = 0.75 (a split beside a wall keeps a child in contact,
-    // docs/resolution.md). Both runs to T = 3.15, through the surge's impact on the far wall (the probe (195,
-    // 5) mm wet at T ≈ 2.9, its 10 ms window ending by T ≈ 3.1; to T = 3.4 until 2026-12-04, cut for
+    // docs/resolution.md). Both runs to T = 3.15, through the surge's impact on the far wall (the probe
+    // (195, 5) mm wet at T ≈ 2.9, its 10 ms window ending by T ≈ 3.1; to T = 3.4 until 2026-12-04, cut for
     // issue #9's CI budget on a slower machine, 106 -> 65 s: the same front, speed, pair, packing, probe and
     // impulse numbers; 371 splits and 0 merges, 1621 particles at the end, 2128 / 1585 steps, where to
     // T = 3.4 548, 2, 1796, 2835 / 1939; measured), with the options of the main example
