@@ -1,19 +1,36 @@
-# The probes of bench_ppe_difficulty by phase of the obstacle dam break (means over the probes in each interval
-# of T; steps.csv: the first solves of every step). Run in this folder: /usr/bin/python3 phases.py
+# The probes of bench_ppe_difficulty by phase of the obstacle dam break: means over the probes in each interval
+# of T (at the step's start; T in (lo, hi]), per start of the probed system; steps.csv: every step's first
+# solve. r0 as the geometric mean of |b - A x0| / |b|. Run in this folder: /usr/bin/python3 phases.py
+import warnings
+
 import numpy as np
 
+warnings.simplefilter("ignore", RuntimeWarning)  # the ILU(0) run has no "previous" start: nan means
+
+starts = ['warm', 'zero', 'parent', 'previous']
 for s in ['jacobi', 'ilu0']:
     d = np.genfromtxt(f'probes_{s}.csv', delimiter=',', names=True)
-    bad = sum(int((d[c] < 0).sum()) for c in ['jacobi_warm', 'jacobi_zero', 'ilu0_warm', 'ilu0_zero'])
-    print(f'run with {s}: {len(d)} probes, {bad} probe solves not converged')
-    print('  T interval  | probes | unknowns | mean log10 r0 | Jacobi from x0 / from 0 | ILU(0) from x0 / from 0')
-    for lo, hi in [(0, 0.6), (0.6, 1.5), (1.5, 2.5), (2.5, 3.0), (3.0, 3.81)]:
+    cols = [f'{k}_{st}' for st in starts for k in ['jacobi', 'ilu0']]
+    bad = sum(int((d[c] < 0).sum()) for c in cols)
+    print(f'run with {s}: {len(d)} probes, {bad} probe solves not converged, the previous start at '
+          f'{int((d["mapped"] >= 0).sum())} of them')
+    print('  T          probes unknowns | r0: warm zero parent previous | Jacobi: warm zero parent previous '
+          '| ILU(0): warm zero parent previous')
+    for lo, hi in [(0, 0.6), (0.6, 1.5), (1.5, 2.5), (2.5, 3.0), (3.0, 3.81), (0, 3.81)]:
         m = (d['T'] > lo) & (d['T'] <= hi)
-        print(f"  ({lo}, {hi}] | {m.sum():3d} | {d['unknowns'][m].mean():5.0f} | {np.log10(d['r0'][m]).mean():5.2f} | "
-              f"{d['jacobi_warm'][m].mean():6.1f} / {d['jacobi_zero'][m].mean():6.1f} | "
-              f"{d['ilu0_warm'][m].mean():5.1f} / {d['ilu0_zero'][m].mean():5.1f}")
+        mp = m & (d['mapped'] >= 0)
+
+        def mean(c, st):
+            sel = mp if st == 'previous' else m
+            return d[f'{c}_{st}'][sel].mean()
+        r0 = ' '.join(f"{10 ** np.log10(d[f'r0_{st}'][mp if st == 'previous' else m]).mean():6.3g}"
+                      for st in starts)
+        jac = ' '.join(f'{mean("jacobi", st):6.1f}' for st in starts)
+        ilu = ' '.join(f'{mean("ilu0", st):5.1f}' for st in starts)
+        print(f"  ({lo}, {hi}] {m.sum():4d} {d['unknowns'][m].mean():6.0f} | {r0} | {jac} | {ilu}")
     st = np.genfromtxt(f'steps_{s}.csv', delimiter=',', names=True)
     for lo, hi in [(0, 0.6), (0.6, 3.81)]:
-        m = (st['T'] > lo) & (st['T'] <= hi)
-        print(f"  every step, T in ({lo}, {hi}]: {m.sum()} steps, first solve {st['first_solve_iterations'][m].mean():.1f} "
-              f"iterations, {st['repeat_solves'][m].mean():.2f} repeats per step")
+        m = (st['T'] >= lo) & (st['T'] < hi)
+        print(f"  every step starting in [{lo}, {hi}): {m.sum()} steps, first solve "
+              f"{st['first_solve_iterations'][m].mean():.1f} iterations, {st['repeat_solves'][m].mean():.2f} "
+              f"repeats per step")
