@@ -171,10 +171,11 @@ int run(int argc, char** argv) {
   io::progress_sink progress(std::cerr, 5.0);
   const auto t0 = std::chrono::steady_clock::now();
   double next_vtk = 0.0;
+  io::step_iterations step_its;
   const auto observer = [&](const auto& sim) {
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    progress.update({sim.time(), c.t_end, sim.counters().steps, sim.dt(), sim.last_solve().iterations,
-                     sim.state().n_real(), wall});
+    progress.update({sim.time(), c.t_end, sim.counters().steps, sim.dt(),
+                     step_its(sim.counters().ppe_iterations), sim.state().n_real(), wall});
     if (sim.time() + 1e-12 >= next_vtk) {
       vtk.write(sim.state(), sim.time(), sim.counters().steps);
       next_vtk += vtk_every;

@@ -215,13 +215,14 @@ int main(int argc, char** argv) {
       long steps = 0;
       std::ofstream snap;
       const auto t0 = std::chrono::steady_clock::now();
+      io::step_iterations step_its;
       const auto observe = [&](const auto& sim) {
         const auto& st = sim.state();
         n_sum += static_cast<double>(st.n_real());
         ++steps;
         const double T = db.t_star(sim.time());
         progress.update({sim.time(), T_end / db.t_star(1.0), sim.counters().steps, sim.dt(),
-                         sim.last_solve().iterations, st.n_real(),
+                         step_its(sim.counters().ppe_iterations), st.n_real(),
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()});
         if (write_vtk && (T + 1e-9 >= next_vtk || T >= T_end)) {
           vtk.write(st, sim.time(), sim.counters().steps);

@@ -142,11 +142,12 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
   const double T_of_t = std::sqrt(2.0 * cfg.g / cfg.column_width);
   double next_vtk = 0.0;
   const auto t0 = std::chrono::steady_clock::now();
+  io::step_iterations step_its;
   const auto observe = [&](const auto& sim) {
     const double T = sim.time() * T_of_t,
                  wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    progress.update({sim.time(), T_end / T_of_t, sim.counters().steps, sim.dt(), sim.last_solve().iterations,
-                     sim.state().n_real(), wall});
+    progress.update({sim.time(), T_end / T_of_t, sim.counters().steps, sim.dt(),
+                     step_its(sim.counters().ppe_iterations), sim.state().n_real(), wall});
     if (T + 1e-9 >= next_vtk || T >= T_end) {
       vtk.write(sim.state(), sim.time(), sim.counters().steps);
       // not for the last step's frame: an extended run keeps the grid
@@ -327,7 +328,7 @@ int main(int argc, char** argv) {
         obstacle_p;  // the obstacle's probe (the runner samples (195, 5) mm itself)
     const auto t0 = std::chrono::steady_clock::now();
     double next_vtk = 0.0, T_snap = 0.0, wall_before = 0.0;  // wall_before: earlier pieces' (--resume)
-    long last_it = 0;
+    io::step_iterations step_its;  // saved in a checkpoint (a resumed run's steps count from it)
     std::ofstream snap;
     std::ofstream trace_out;  // appended to when resuming
     const fs::path trace_path = fs::path(out) / "trace.txt";
@@ -337,11 +338,11 @@ int main(int argc, char** argv) {
     const auto observe = [&](const auto& sim) {
       const auto& c = sim.counters();
       const auto& st = sim.state();
+      const index_t step_it = step_its(c.ppe_iterations);  // every solve of the step
       counters.record_step(
-          st.n_real(), c.ppe_iterations - last_it, 0, 0,
+          st.n_real(), step_it, 0, 0,
           static_cast<index_t>(std::count_if(st.flags().begin(), st.flags().begin() + st.n_real(),
                                              [](flag::type f) { return (f & flag::isolated) != 0; })));
-      last_it = c.ppe_iterations;
       if (trace && traced < 20 &&
           cases::trace_fast_particle(trace_out, sim, trace_speed, rho_g_h, db.t_star(sim.time()))) {
         ++traced;
@@ -353,8 +354,8 @@ int main(int argc, char** argv) {
       }
       const double T = db.t_star(sim.time()),
                    wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      progress.update({sim.time(), T_end / db.t_star(1.0), c.steps, sim.dt(), sim.last_solve().iterations,
-                       st.n_real(), wall_before + wall});
+      progress.update(
+          {sim.time(), T_end / db.t_star(1.0), c.steps, sim.dt(), step_it, st.n_real(), wall_before + wall});
       if (T + 1e-9 >= next_vtk || T >= T_end) {  // every 0.25 in T and the last step
         vtk.write(st, sim.time(), c.steps);
         // not for the last step's frame: a resumed, extended run keeps the grid
@@ -391,7 +392,7 @@ int main(int argc, char** argv) {
     // and last time are checked against the .pvd file, and the trace file is cut back to its length.
     double files_saved = 0.0, last_file_time = 0.0, trace_bytes = -1.0;
     cases::measure_list output;
-    output(next_vtk)(T_snap)(last_it)(traced)
+    output(next_vtk)(T_snap)(step_its.last)(traced)
         .add([&] { return double(vtk.pvd().entries().size()); }, [&](double x) { files_saved = x; })
         .add([&] { return vtk.pvd().entries().empty() ? 0.0 : vtk.pvd().entries().back().time; },
              [&](double x) { last_file_time = x; })

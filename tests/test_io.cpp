@@ -951,6 +951,17 @@ TEST_SUITE("io") {
     tsink.finish();
     CHECK(term.str().back() == '\n');
     check_refused([&] { io::progress_sink(term, -1.0); }, {"interval", ">= 0"});
+
+    // The progress line's iterations are the step's, every solve summed (the LSMPS scheme repeats solves
+    // within a step, and its last_solve() is the last one only): step_iterations differences the running
+    // total; a resumed run starts from its restored total; a total that falls is refused.
+    io::step_iterations its;
+    CHECK(its(30) == 30);
+    CHECK(its(30) == 0);
+    CHECK(its(75) == 45);
+    io::step_iterations resumed{1000};
+    CHECK(resumed(1012) == 12);
+    check_refused([&] { resumed(5); }, {"step_iterations", "fell below"});
   }
 
   TEST_CASE("io: end summary accumulates and prints every counter") {

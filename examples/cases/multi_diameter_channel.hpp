@@ -259,11 +259,13 @@ multi_diameter_result run_multi_diameter(multi_diameter_config c) {
   struct stopped {};
   std::optional<io::progress_sink> progress;
   if (c.progress_interval > 0.0) progress.emplace(std::cerr, c.progress_interval, io::progress_mode::plain);
+  io::step_iterations step_its{sim.counters().ppe_iterations};  // a resumed run's total restored above
   const auto extremes = [&](const auto&) {
     track_extremes(r, sim.state(), sim.time(), in_window);
+    const index_t step_it = step_its(sim.counters().ppe_iterations);  // every solve of the step
     if (progress)
-      progress->update({sim.time(), c.t_end, sim.counters().steps, sim.dt(), sim.last_solve().iterations,
-                        sim.state().n_real(), wall_before + wall()});
+      progress->update({sim.time(), c.t_end, sim.counters().steps, sim.dt(), step_it, sim.state().n_real(),
+                        wall_before + wall()});
   };
   const auto pause = [&] {  // after a step's measurements: checkpoint, and stop when asked
     if (clock.after_step(save, sim.time() < c.t_end)) throw stopped{};

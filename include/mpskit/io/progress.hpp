@@ -31,9 +31,27 @@ struct progress_info {
   double end_time = std::numeric_limits<double>::quiet_NaN();
   index_t step = 0;                              ///< steps done
   double dt = 0.0;                               ///< current time step [s]
-  index_t ppe_iterations = 0;                    ///< linear-solver iterations of the last step
+  /// linear-solver iterations of the last step, every solve of it summed (step_iterations below)
+  index_t ppe_iterations = 0;
   index_t particles = 0;                         ///< real particles
   double wall_seconds = 0.0;                     ///< wall time since the run started [s] (the caller's clock)
+};
+
+/// \brief The linear-solver iterations of each step, every solve of the step summed, from a scheme's running
+/// total (`counters().ppe_iterations`). A scheme's `last_solve()` is the step's last solve only: the LSMPS
+/// scheme repeats solves within a step (the active set's and the own-loop guard's repeats), and a repeat that
+/// starts from a converged iterate reports 0 iterations. Called once per step, it gives each step's sum.
+struct step_iterations {
+  /// The running total at the last call: 0 for a new run; a resumed run sets it to its restored total (or
+  /// saves and restores it with its own measures).
+  long last = 0;
+  /// The iterations since the last call; `total` is the running total now.
+  index_t operator()(long total) {
+    if (total < last) fail("step_iterations: the running total ", total, " fell below ", last);
+    const long d = total - last;
+    last = total;
+    return static_cast<index_t>(d);
+  }
 };
 
 /// How a progress sink prints.

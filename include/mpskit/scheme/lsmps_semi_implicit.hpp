@@ -435,7 +435,8 @@ lsmps_params<D> lsmps_impact_params(lsmps_params<D> p = {}) {
 struct lsmps_counters {
   long steps = 0;               ///< steps taken
   long ppe_iterations = 0;      ///< solver iterations, summed
-  long ppe_iterations_max = 0;  ///< largest per step
+  /// largest of one solve (a step may solve more than once: ppe_repeat_solves)
+  long ppe_iterations_max = 0;
   /// lagged-ILUT solves (solver_params::ilut_reuse) repeated with fresh factors
   long ppe_lagged_retries = 0;
   /// solves made by the fallback solver after the primary failed (ppe::with_fallback)
