@@ -194,7 +194,8 @@ int run(int argc, char** argv) {
   }();
   progress.finish();
   std::printf(
-      "  run (%s): %s at t = %.4f s of %.4f s, %ld steps, %.1f s wall (PPE iterations mean %.1f, max %ld)\n",
+      "  run (%s): %s at t = %.4f s of %.4f s, %ld steps, %.1f s wall (PPE iterations per step %.1f, most "
+      "in one solve %ld)\n",
       solver,
       r.failed    ? "FAILED"
       : r.stopped ? "stopped at the wall-clock limit"

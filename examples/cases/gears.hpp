@@ -543,8 +543,8 @@ struct gears_result {
   vec<2> p_min_at = vec<2>::Zero(), p_max_at = vec<2>::Zero(), u_max_at = vec<2>::Zero();
   double p_min_t = 0.0, p_max_t = 0.0, u_max_t = 0.0;
   double t_reached = 0.0, wall_seconds = 0.0, ledger_error = 0.0;
-  long ppe_iterations_max = 0;
-  double ppe_iterations_mean = 0.0;
+  long ppe_iterations_max = 0;       ///< the most iterations of one solve
+  double ppe_iterations_mean = 0.0;  ///< iterations per step, every solve of a step summed
   bool failed = false;
   bool stopped = false;  ///< stopped at config.wall_limit (not a failure)
   std::string failure;  ///< the error's message when the run stopped early
