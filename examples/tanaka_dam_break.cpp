@@ -386,10 +386,11 @@ int main(int argc, char** argv) {
         trace ? trace_speed : -1.0);
     // --ilu0 appended only when given, so that the checkpoints of runs without it still load
     const std::string options = std::string(options_text) + (ilu0 ? ", ilu0 1" : "");
-    // The output's state (section "example.output"): the next frame's time, the picture's T, the last PPE
-    // count, the traces written, the ParaView files written and the last one's time, the trace file's length
-    // (flushed per trace; -1 without --trace). The last three are read into these places: the series' length
-    // and last time are checked against the .pvd file, and the trace file is cut back to its length.
+    // The output's state (section "example.output"): the next frame's time, the picture's T, the running PPE
+    // iteration total at the last step, the traces written, the ParaView files written and the last one's
+    // time, the trace file's length (flushed per trace; -1 without --trace). The last three are read into
+    // these places: the series' length and last time are checked against the .pvd file, and the trace file is
+    // cut back to its length.
     double files_saved = 0.0, last_file_time = 0.0, trace_bytes = -1.0;
     cases::measure_list output;
     output(next_vtk)(T_snap)(step_its.last)(traced)

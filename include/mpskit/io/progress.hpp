@@ -1,7 +1,8 @@
 #pragma once
 /// \file io/progress.hpp
 /// \brief Run progress and end summary: `progress_sink` (a carriage-return line on a terminal, a plain
-/// row per interval otherwise), `run_counters` (what a run accumulates) and `run_summary` with its printer.
+/// row per interval otherwise), `step_iterations` (each step's PPE iterations from a scheme's running total),
+/// `run_counters` (what a run accumulates) and `run_summary` with its printer.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
