@@ -84,6 +84,7 @@
 #include <vector>
 
 #include "cases/cli.hpp"
+#include "cases/multires_dam_break_options.hpp"
 #include "cases/tanaka_obstacle_multires.hpp"
 #include "mpskit/io/csv.hpp"
 #include "mpskit/io/progress.hpp"
@@ -120,68 +121,21 @@ std::string fmt_mm(double L) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const scheme::lsmps_params<2> defaults = scheme::lsmps_impact_params<2>();  // the options' defaults
-  double L_mm = 5.0, ratio = 2.0, T_end = 3.8, r0_mm = 30.0, r1_mm = 60.0,
-         collision = defaults.collision.alpha1;
-  bool single = true, collide_isolated = defaults.collision.isolated,
-       shift_isolated = defaults.shift_isolated_penalty;
-  bool collide_isolated_asked = false, release = defaults.active_set_release,
-       warm = defaults.active_set_warm_start;
-  bool contact_fallback = false;
-  std::string out = "out/multires_dam_break", walls = cases::tanaka_impact_walls;
-  const auto usage = [&]() {
-    std::fprintf(stderr,
-                 "usage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision "
-                 "ALPHA1] [--no-collide-isolated] "
-                 "[--no-shift-isolated] [--release] [--warm] [--contact-fallback] [--no-single] [--full] "
-                 "[--out DIR]\n",
-                 argv[0]);
+  cases::multires_dam_break_options opt;  // the defaults: scheme::lsmps_impact_params<2>()
+  try {
+    opt = cases::read_multires_dam_break_options(argc, argv);
+  } catch (const mpskit::error& e) {  // an unknown option, a missing value, a number that is not one
+    std::fprintf(
+        stderr,
+        "%s\nusage: %s [--L mm] [--ratio r] [--T T_end] [--r0 mm] [--r1 mm] [--walls NAME] [--collision "
+        "ALPHA1] [--no-collide-isolated] [--no-shift-isolated] [--release] [--warm] [--contact-fallback] "
+        "[--no-single] [--full] [--out DIR]\n",
+        e.what(), argv[0]);
     return 2;
-  };
-  for (int a = 1; a < argc; ++a) {
-    const bool has_value = a + 1 < argc;
-    if (!std::strcmp(argv[a], "--full")) L_mm = 5.0, ratio = 5.0;
-    else if (!std::strcmp(argv[a], "--no-single")) single = false;
-    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
-    else if (!std::strcmp(argv[a], "--no-collide-isolated"))
-      collide_isolated = collide_isolated_asked = false;
-    else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
-    else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
-    else if (!std::strcmp(argv[a], "--release")) release = true;
-    else if (!std::strcmp(argv[a], "--warm")) warm = true;
-    else if (!std::strcmp(argv[a], "--contact-fallback")) contact_fallback = true;
-    else {
-      // Numbers: the whole text, finite (cases/cli.hpp: `--r0 abc` is refused, not read as 0); ranges below.
-      const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
-      try {
-        if (!std::strcmp(argv[a], "--L") && has_value) L_mm = number("multires_dam_break: --L");
-        else if (!std::strcmp(argv[a], "--ratio") && has_value) ratio = number("multires_dam_break: --ratio");
-        else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("multires_dam_break: --T");
-        else if (!std::strcmp(argv[a], "--r0") && has_value) r0_mm = number("multires_dam_break: --r0");
-        else if (!std::strcmp(argv[a], "--r1") && has_value) r1_mm = number("multires_dam_break: --r1");
-        else if (!std::strcmp(argv[a], "--collision") && has_value)
-          collision = number("multires_dam_break: --collision");
-        else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
-        else if (!std::strcmp(argv[a], "--walls") && has_value) walls = argv[++a];
-        else return usage();
-      } catch (const mpskit::error& e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return usage();
-      }
-    }
   }
   try {
-    const char* who = "multires_dam_break";
-    if (!(L_mm > 0.0 && std::isfinite(L_mm))) fail(who, ": --L ", L_mm, " mm: must be > 0");
-    if (!(ratio >= 1.0 && std::isfinite(ratio))) fail(who, ": --ratio ", ratio, ": must be >= 1");
-    if (!(T_end > 0.0 && std::isfinite(T_end))) fail(who, ": --T ", T_end, ": must be > 0");
-    cases::tanaka_wall_variant_named(walls, "multires_dam_break --walls");  // refused here, before any run
-    regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, also before any run
-    if (collide_isolated_asked && collision == 0.0)
-      fail(who, ": --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
-    // nothing collides without the stage (the default's "on" lapses)
-    if (collision == 0.0) collide_isolated = false;
-    const double L = 1e-3 * L_mm, Lf = L / ratio;
+    opt.validate();  // refuses bad input before any output
+    const double L = 1e-3 * opt.L_mm, Lf = L / opt.ratio;
     const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
     const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);
     cfg_coarse.validate();
@@ -189,20 +143,22 @@ int main(int argc, char** argv) {
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg_coarse);
     const double sqrt_gH = std::sqrt(cfg_coarse.g * cfg_coarse.column_height);  // issue #9's speed scale
 
-    fs::create_directories(out);
-    io::vtk_series vtk(fs::path(out) / "multires_dam_break");
+    fs::create_directories(opt.out);
+    io::vtk_series vtk(fs::path(opt.out) / "multires_dam_break");
     std::printf(
         "mpskit: Tanaka's dam break with the 10 x 10 mm obstacle (Tanaka 2018 sec. 5.6.2), LSMPS scheme, "
         "walls '%s', "
         "collision alpha1 %g%s%s%s, to T = %g (t = %.4f s)\n  multi-resolution: %g mm, %g mm within %g mm of "
         "the block's centre, ramp to %g mm%s; "
         "single resolution at %g and %g mm%s\n",
-        walls.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
-        shift_isolated ? ", isolated particles in the shifting penalty" : "",
-        release ? (warm ? ", active set with releases, warm-started" : ", active set with releases") : "",
-        T_end, T_end / db.t_star(1.0), L_mm, L_mm / ratio, r0_mm, r1_mm,
-        contact_fallback ? ", wall-contact fallback" : "", L_mm, L_mm / ratio,
-        single ? "" : " skipped (--no-single)");
+        opt.lsmps.walls_name.c_str(), opt.lsmps.collision,
+        opt.lsmps.colliding_isolated() ? " (isolated particles too)" : "",
+        opt.lsmps.shift_isolated ? ", isolated particles in the shifting penalty" : "",
+        opt.release ? (opt.warm ? ", active set with releases, warm-started" : ", active set with releases")
+                    : "",
+        opt.T_end, opt.T_end / db.t_star(1.0), opt.L_mm, opt.L_mm / opt.ratio, opt.r0_mm, opt.r1_mm,
+        opt.contact_fallback ? ", wall-contact fallback" : "", opt.L_mm, opt.L_mm / opt.ratio,
+        opt.single ? "" : " skipped (--no-single)");
 
     std::vector<run_record> runs;
     const auto run = [&]<class Scene>(const char* name, const cases::tanaka_dam_break_config& cfg,
@@ -221,13 +177,13 @@ int main(int argc, char** argv) {
         n_sum += static_cast<double>(st.n_real());
         ++steps;
         const double T = db.t_star(sim.time());
-        progress.update({sim.time(), T_end / db.t_star(1.0), sim.counters().steps, sim.dt(),
+        progress.update({sim.time(), opt.T_end / db.t_star(1.0), sim.counters().steps, sim.dt(),
                          step_its(sim.counters().ppe_iterations), st.n_real(),
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()});
-        if (write_vtk && (T + 1e-9 >= next_vtk || T >= T_end)) {
+        if (write_vtk && (T + 1e-9 >= next_vtk || T >= opt.T_end)) {
           vtk.write(st, sim.time(), sim.counters().steps);
           next_vtk += 0.25;
-          snap.open(fs::path(out) / "particles.dat",
+          snap.open(fs::path(opt.out) / "particles.dat",
                     std::ios::trunc);  // the latest written state, for the picture
           const auto& V = st.template get<field::volume>();
           for (index_t i = 0; i < st.n_real(); ++i)
@@ -236,35 +192,29 @@ int main(int argc, char** argv) {
         }
       };
       std::fprintf(stderr, "  run '%s' ...\n", name);
-      rec.r = cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true, observe);
+      rec.r = cases::run_tanaka_dam_break<Scene>(cfg, opt.T_end, p, true, observe);
       progress.finish();
       rec.mean_particles =
           steps > 0 ? n_sum / static_cast<double>(steps) : static_cast<double>(rec.r.particles);
       runs.push_back(std::move(rec));
     };
 
-    scheme::lsmps_params<2> p = cases::obstacle_params(walls);
-    p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
-    p.collision.isolated = collide_isolated;
-    p.shift_isolated_penalty = shift_isolated;
-    p.active_set_release = release;
-    p.active_set_warm_start = warm;
-    p.validate();  // --release with wall options that have no active set, --warm without --release: refused
-                   // here
+    const scheme::lsmps_params<2> p = opt.params();
     scheme::lsmps_params<2> pm = p;
-    cases::refine_around_block(pm, cfg_coarse, ratio, 1e-3 * r0_mm, 1e-3 * r1_mm);
-    pm.resolution.wall_contact_fallback = contact_fallback;  // (refine_around_block sets wall_contact = 0.75)
+    cases::refine_around_block(pm, cfg_coarse, opt.ratio, 1e-3 * opt.r0_mm, 1e-3 * opt.r1_mm);
+    pm.resolution.wall_contact_fallback =
+        opt.contact_fallback;  // (refine_around_block sets wall_contact = 0.75)
     run.operator()<cases::obstacle_multires_scene>("multi", cfg_coarse, pm, true);
-    if (single) {
+    if (opt.single) {
       run.operator()<lsmps_defaults<2>>("coarse", cfg_coarse, p, false);
       run.operator()<lsmps_defaults<2>>("fine", cfg_fine, p, false);
     }
     run_record& multi = runs[0];
-    const cases::tanaka_dam_break_result* ref = single ? &runs[2].r : nullptr;
+    const cases::tanaka_dam_break_result* ref = opt.single ? &runs[2].r : nullptr;
     for (run_record& rr : runs) rr.impact = cases::far_wall_impact(rr.r);
     // Fronts compared up to the fine run's first wet sample at the far-wall probe (after it every front is
     // the vessel's width), as the speed-against-error reporter (benchmarks/report_obstacle_multires.cpp).
-    const double T_impact = single ? db.t_star(runs[2].impact.t_arrival) : std::nan("");
+    const double T_impact = opt.single ? db.t_star(runs[2].impact.t_arrival) : std::nan("");
     if (ref)
       for (run_record& rr : runs) {
         const double T_limit = std::isfinite(T_impact) ? T_impact : std::numeric_limits<double>::infinity();
@@ -277,7 +227,7 @@ int main(int argc, char** argv) {
     {
       std::vector<io::csv_column> cols{{"T", "1"}};
       for (const run_record& rr : runs) cols.push_back({"h_star_" + rr.name, "1"});
-      io::csv_writer csv(fs::path(out) / "front.csv", cols);
+      io::csv_writer csv(fs::path(opt.out) / "front.csv", cols);
       const auto& T0 = multi.r.T;
       std::size_t longest = 0;
       for (const run_record& rr : runs) longest = std::max(longest, rr.r.T.size());
@@ -293,7 +243,7 @@ int main(int argc, char** argv) {
       std::string order = "rows (column run): ";
       for (std::size_t k = 0; k < runs.size(); ++k)
         order += (k ? ", " : "") + std::to_string(k) + " = " + runs[k].name;
-      io::csv_writer csv(fs::path(out) / "runs.csv",
+      io::csv_writer csv(fs::path(opt.out) / "runs.csv",
                          {{"run", "1"},
                           {"L", "mm"},
                           {"L_min", "mm"},
@@ -358,7 +308,7 @@ int main(int argc, char** argv) {
       std::vector<io::csv_column> cols;
       for (const run_record& rr : runs)
         cols.insert(cols.end(), {{"t_" + rr.name, "s"}, {"p_" + rr.name, "Pa"}});
-      io::csv_writer csv(fs::path(out) / "probe.csv", cols);
+      io::csv_writer csv(fs::path(opt.out) / "probe.csv", cols);
       std::size_t longest = 0;
       for (const run_record& rr : runs) longest = std::max(longest, rr.r.probe_t.size());
       for (std::size_t k = 0; k < longest; ++k) {
@@ -375,9 +325,9 @@ int main(int argc, char** argv) {
     for (const std::size_t k : {std::size_t{2}, std::size_t{0}, std::size_t{1}})
       if (k < runs.size() && !std::isfinite(t_wet)) t_wet = runs[k].impact.t_arrival;
     const bool any_wet = std::isfinite(t_wet);
-    const std::string gp = (fs::path(out) / "plot.gp").string();
+    const std::string gp = (fs::path(opt.out) / "plot.gp").string();
     {
-      const std::string o = out;
+      const std::string o = opt.out;
       std::ofstream g(gp);
       g << "set terminal pngcairo size 1000,560\nset datafile separator whitespace\n"
         << "set output '" << o << "/particles.png'\nset size ratio -1\n"
@@ -415,7 +365,7 @@ int main(int argc, char** argv) {
     const bool pictures = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str()) == 0;
 
     std::printf("\nmpskit: multi-resolution dam break with the obstacle, to T = %g (docs/resolution.md)\n",
-                T_end);
+                opt.T_end);
     std::printf("  %-7s %5s %9s %8s %8s %8s %7s %7s %8s %7s %7s %7s  %s\n", "run", "L mm", "reached T",
                 "part. 0", "mean", "end", "splits", "merges", "wall s", "guard", "pair L", "|u|max",
                 "front vs fine (RMS / max, to T)");
@@ -433,7 +383,7 @@ int main(int argc, char** argv) {
         "  (pair L: the closest pair r_ij/L_ij after any step; |u|max: the largest speed in sqrt(g H), H = "
         "%.0f mm; issue #9's hard-case bounds are >= 0.3 and <= 5)\n",
         cfg_coarse.column_height * 1e3);
-    if (single && runs[0].body_front.samples > 0 && runs[1].body_front.samples > 0)
+    if (opt.single && runs[0].body_front.samples > 0 && runs[1].body_front.samples > 0)
       std::printf(
           "  front over the largest connected body (spray left out) vs fine, RMS / max: multi %.2f %% / %.2f "
           "%%, coarse %.2f %% / %.2f %%\n",
@@ -457,7 +407,7 @@ int main(int argc, char** argv) {
     for (const run_record& rr : runs)
       if (rr.r.failed)
         std::printf("  '%s' FAILED at T = %.3f: %s\n", rr.name.c_str(), rr.r.T_failed, rr.r.failure.c_str());
-    if (single) {
+    if (opt.single) {
       const run_record& fine = runs[2];
       std::printf("  particle saving against the fine single run: %.1f %% (mean %.0f against %ld)\n",
                   100.0 * (1.0 - multi.mean_particles / static_cast<double>(fine.r.particles)),
@@ -474,13 +424,13 @@ int main(int argc, char** argv) {
             "  wall time: multi %.1f s, coarse single %.1f s, fine single %.1f s%s: no speed figure from "
             "runs that did not all reach T = %g\n",
             multi.r.wall_seconds, runs[1].r.wall_seconds, fine.r.wall_seconds,
-            fine.r.failed ? " (to its failure)" : "", T_end);
+            fine.r.failed ? " (to its failure)" : "", opt.T_end);
     }
     std::printf(
         "  multi: volume change %.1e (splits and merges conserve it), smallest diameter %.2f mm, closest "
         "pair %.3f L\n",
         multi.r.volume_change, multi.r.L_min * 1e3, multi.r.min_pair_ratio);
-    std::printf("  output: %s/multires_dam_break.pvd (%ld files), front.csv, runs.csv%s\n", out.c_str(),
+    std::printf("  output: %s/multires_dam_break.pvd (%ld files), front.csv, runs.csv%s\n", opt.out.c_str(),
                 long(vtk.files_written()),
                 !pictures ? ", probe.csv (no gnuplot: pictures skipped)"
                 : any_wet ? ", probe.csv, particles.png, front.png, probe.png"

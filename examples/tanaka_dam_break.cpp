@@ -101,6 +101,7 @@
 
 #include "cases/cli.hpp"
 #include "cases/dam_break.hpp"
+#include "cases/tanaka_dam_break_options.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "cases/tanaka_dam_break_slab.hpp"
 #include "cases/tanaka_fallback_scene.hpp"
@@ -210,118 +211,34 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
 }  // namespace
 
 int main(int argc, char** argv) {
-  const scheme::lsmps_params<2> defaults = scheme::lsmps_impact_params<2>();  // the options' defaults
-  double L_mm = 5.0, T_end = 3.2, trace_speed = 0.0, collision = defaults.collision.alpha1, lid_mm = 0.0,
-         slab = 0.0;
-  bool slab_asked = false, slab_walls = false;
-  bool trace = false, collide_isolated = defaults.collision.isolated,
-       shift_isolated = defaults.shift_isolated_penalty;
-  bool obstacle = false, collide_isolated_asked = false, fallback = false, ilu0 = false;
-  cases::tanaka_pieces pieces;
-  std::string walls_name = cases::tanaka_impact_walls, data = MPSKIT_DATA_DIR, out = "out/tanaka_dam_break";
-  const auto usage = [&]() {
+  cases::tanaka_dam_break_options opt;  // the defaults: scheme::lsmps_impact_params<2>()
+  try {
+    opt = cases::read_tanaka_dam_break_options(argc, argv, MPSKIT_DATA_DIR);
+  } catch (const mpskit::error& e) {  // an unknown option, a missing value, a number that is not one
     std::fprintf(
         stderr,
-        "usage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] [--lid "
-        "mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback | --ilu0] [--trace U] [--slab N "
-        "[--slab-walls]] "
-        "[--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--out DIR] [--data DIR]\n",
-        argv[0]);
+        "%s\nusage: %s [--L mm] [--T T_end] [--walls NAME] [--collision ALPHA1] [--no-collide-isolated] "
+        "[--lid mm] [--no-shift-isolated] [--obstacle] [--full] [--fallback | --ilu0] [--trace U] [--slab N "
+        "[--slab-walls]] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] [--out DIR] "
+        "[--data DIR]\n",
+        e.what(), argv[0]);
     return 2;
-  };
-  for (int a = 1; a < argc; ++a) {
-    const bool has_value = a + 1 < argc;
-    if (!std::strcmp(argv[a], "--full")) L_mm = 1.0;
-    else if (!std::strcmp(argv[a], "--obstacle")) obstacle = true;
-    else if (!std::strcmp(argv[a], "--fallback")) fallback = true;
-    else if (!std::strcmp(argv[a], "--ilu0")) ilu0 = true;
-    else if (!std::strcmp(argv[a], "--collide-isolated")) collide_isolated = collide_isolated_asked = true;
-    else if (!std::strcmp(argv[a], "--no-collide-isolated"))
-      collide_isolated = collide_isolated_asked = false;
-    else if (!std::strcmp(argv[a], "--shift-isolated")) shift_isolated = true;
-    else if (!std::strcmp(argv[a], "--slab-walls")) slab_walls = true;
-    else if (!std::strcmp(argv[a], "--no-shift-isolated")) shift_isolated = false;
-    else {
-      // Numbers: the whole text, finite (cases/cli.hpp: `--collision abc` is refused, not read as 0, which
-      // would switch the stage off); the ranges are checked below.
-      const auto number = [&](const char* what) { return cases::parse_number(what, argv[++a]); };
-      try {
-        if (!std::strcmp(argv[a], "--L") && has_value) L_mm = number("tanaka_dam_break: --L");
-        else if (!std::strcmp(argv[a], "--T") && has_value) T_end = number("tanaka_dam_break: --T");
-        else if (!std::strcmp(argv[a], "--walls") && has_value) walls_name = argv[++a];
-        else if (!std::strcmp(argv[a], "--collision") && has_value)
-          collision = number("tanaka_dam_break: --collision");
-        else if (!std::strcmp(argv[a], "--lid") && has_value) lid_mm = number("tanaka_dam_break: --lid");
-        else if (!std::strcmp(argv[a], "--slab") && has_value)
-          slab = number("tanaka_dam_break: --slab"), slab_asked = true;
-        else if (!std::strcmp(argv[a], "--trace") && has_value)
-          trace = true, trace_speed = number("tanaka_dam_break: --trace");
-        else if (!std::strcmp(argv[a], "--checkpoint") && has_value) pieces.checkpoint = argv[++a];
-        else if (!std::strcmp(argv[a], "--resume") && has_value) pieces.resume = argv[++a];
-        else if (!std::strcmp(argv[a], "--every") && has_value)
-          pieces.checkpoint_interval = number("tanaka_dam_break: --every");
-        else if (!std::strcmp(argv[a], "--stop-after") && has_value)
-          pieces.stop_after = number("tanaka_dam_break: --stop-after");
-        else if (!std::strcmp(argv[a], "--out") && has_value) out = argv[++a];
-        else if (!std::strcmp(argv[a], "--data") && has_value) data = argv[++a];
-        else return usage();
-      } catch (const mpskit::error& e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return usage();
-      }
-    }
   }
   try {
-    if (!(L_mm > 0.0 && std::isfinite(L_mm))) fail("tanaka_dam_break: --L ", L_mm, " mm: must be > 0");
-    if (!(T_end > 0.0 && std::isfinite(T_end))) fail("tanaka_dam_break: --T ", T_end, ": must be > 0");
-    if (trace && !(trace_speed >= 0.0 && std::isfinite(trace_speed)))
-      fail("tanaka_dam_break: --trace ", trace_speed, " m/s: must be >= 0");
-    if (fallback && ilu0)
-      fail("tanaka_dam_break: --fallback and --ilu0 name two solvers (the fallback's primary is Jacobi)");
-    pieces.validate("tanaka_dam_break");  // --every and --stop-after need --checkpoint; both finite, >= 0
-    const cases::tanaka_wall_variant& walls =
-        cases::tanaka_wall_variant_named(walls_name, "tanaka_dam_break --walls");
-    regularize::sized_collision_params{.alpha1 = collision}.validate();  // --collision, before any output
-    if (collide_isolated_asked && collision == 0.0)
-      fail("tanaka_dam_break: --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
-    // nothing collides without the stage (the default's "on" lapses)
-    if (collision == 0.0) collide_isolated = false;
-    cases::tanaka_dam_break_config cfg =
-        obstacle ? cases::tanaka_obstacle_config(1e-3 * L_mm) : cases::tanaka_dam_break_config{};
-    cfg.L = 1e-3 * L_mm;
-    if (lid_mm !=
-        0.0) {  // cfg.validate() checks it against the column (a lid at or below the water is refused)
-      cfg.vessel_height = 1e-3 * lid_mm;
-      cfg.closed_top = true;
-    }
-    cfg.validate();
-    if (slab_asked) {  // the 3D slab: its own path (the probe, the trace and the pictures are 2D)
-      if (!(slab >= 1.0 && slab <= 1000.0 && slab == std::floor(slab)))
-        fail("tanaka_dam_break: --slab ", slab, ": the number of layers must be a whole number in [1, 1000]");
-      if (obstacle || trace || fallback || ilu0 || !pieces.checkpoint.empty() || !pieces.resume.empty())
-        fail(
-            "tanaka_dam_break: --slab takes neither --obstacle, --trace, --fallback, --ilu0, --checkpoint "
-            "nor --resume (2D only)");
-    } else if (slab_walls) {
-      fail("tanaka_dam_break: --slab-walls needs --slab N");
-    }
-    if (slab_asked) {
-      const bool table2 = walls.name == "parent_gradient";
-      if (!table2 && walls.name != cases::tanaka_impact_walls)
-        fail("tanaka_dam_break: --slab takes --walls ", cases::tanaka_impact_walls,
-             " (the default: the impact "
-             "configuration) or parent_gradient (Tanaka's Table 2), not ",
-             walls.name);
-      return run_slab(cfg, static_cast<int>(slab),
-                      slab_walls ? cases::slab_sides::walls : cases::slab_sides::periodic, T_end, table2,
-                      collision, collide_isolated, shift_isolated, cases::read_front_data(data), out);
-    }
+    opt.validate();  // refuses bad input before any output
+    const cases::tanaka_wall_variant& walls = opt.lsmps.walls("tanaka_dam_break");
+    const cases::tanaka_dam_break_config cfg = opt.config();
+    if (opt.slab_asked)  // the 3D slab: its own path (the probe, the trace and the pictures are 2D)
+      return run_slab(cfg, static_cast<int>(opt.slab),
+                      opt.slab_walls ? cases::slab_sides::walls : cases::slab_sides::periodic, opt.T_end,
+                      walls.name == "parent_gradient", opt.lsmps.collision, opt.lsmps.colliding_isolated(),
+                      opt.lsmps.shift_isolated, cases::read_front_data(opt.data), opt.out);
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg);
-    const vec<2> probe = obstacle ? db.obstacle_probe() : db.probe();
-    const std::vector<cases::front_series> ref = cases::read_front_data(data);
+    const vec<2> probe = opt.obstacle ? db.obstacle_probe() : db.probe();
+    const std::vector<cases::front_series> ref = cases::read_front_data(opt.data);
 
-    fs::create_directories(out);
-    io::vtk_series vtk(fs::path(out) / "tanaka_dam_break");
+    fs::create_directories(opt.out);
+    io::vtk_series vtk(fs::path(opt.out) / "tanaka_dam_break");
     io::progress_sink progress(std::cerr, 2.0);
     io::run_counters counters;
     std::vector<double> obstacle_t,
@@ -331,8 +248,8 @@ int main(int argc, char** argv) {
     io::step_iterations step_its;  // saved in a checkpoint (a resumed run's steps count from it)
     std::ofstream snap;
     std::ofstream trace_out;  // appended to when resuming
-    const fs::path trace_path = fs::path(out) / "trace.txt";
-    if (trace) trace_out.open(trace_path, pieces.resume.empty() ? std::ios::trunc : std::ios::app);
+    const fs::path trace_path = fs::path(opt.out) / "trace.txt";
+    if (opt.trace) trace_out.open(trace_path, opt.pieces.resume.empty() ? std::ios::trunc : std::ios::app);
     int traced = 0;
     const double rho_g_h = cfg.rho * cfg.g * cfg.column_height;
     const auto observe = [&](const auto& sim) {
@@ -343,24 +260,24 @@ int main(int argc, char** argv) {
           st.n_real(), step_it, 0, 0,
           static_cast<index_t>(std::count_if(st.flags().begin(), st.flags().begin() + st.n_real(),
                                              [](flag::type f) { return (f & flag::isolated) != 0; })));
-      if (trace && traced < 20 &&
-          cases::trace_fast_particle(trace_out, sim, trace_speed, rho_g_h, db.t_star(sim.time()))) {
+      if (opt.trace && traced < 20 &&
+          cases::trace_fast_particle(trace_out, sim, opt.trace_speed, rho_g_h, db.t_star(sim.time()))) {
         ++traced;
         trace_out.flush();  // a run killed before its end keeps what it traced
       }
-      if (obstacle) {
+      if (opt.obstacle) {
         obstacle_t.push_back(sim.time());
         obstacle_p.push_back(cases::probe_pressure(sim, probe, cfg.L));
       }
       const double T = db.t_star(sim.time()),
                    wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      progress.update(
-          {sim.time(), T_end / db.t_star(1.0), c.steps, sim.dt(), step_it, st.n_real(), wall_before + wall});
-      if (T + 1e-9 >= next_vtk || T >= T_end) {  // every 0.25 in T and the last step
+      progress.update({sim.time(), opt.T_end / db.t_star(1.0), c.steps, sim.dt(), step_it, st.n_real(),
+                       wall_before + wall});
+      if (T + 1e-9 >= next_vtk || T >= opt.T_end) {  // every 0.25 in T and the last step
         vtk.write(st, sim.time(), c.steps);
         // not for the last step's frame: a resumed, extended run keeps the grid
         if (T + 1e-9 >= next_vtk) next_vtk += 0.25;
-        snap.open(fs::path(out) / "particles.dat",
+        snap.open(fs::path(opt.out) / "particles.dat",
                   std::ios::trunc);  // the latest written state, for the picture
         T_snap = T;
         for (index_t i = 0; i < st.n_real(); ++i)
@@ -368,11 +285,7 @@ int main(int argc, char** argv) {
         snap.close();
       }
     };
-    scheme::lsmps_params<2> p;
-    walls.apply(p);
-    p.collision.alpha1 = collision;  // validated by the scheme ([0, 1.5])
-    p.collision.isolated = collide_isolated;
-    p.shift_isolated_penalty = shift_isolated;
+    const scheme::lsmps_params<2> p = opt.lsmps.params("tanaka_dam_break");
     // Checkpoints carry this program's state beside the runner's: the options (a resume with others is
     // refused), the output series (its length and last time: another --out is refused), the summary's
     // counters, the obstacle's probe and the trace file's length (what a killed run traced after the
@@ -382,10 +295,10 @@ int main(int argc, char** argv) {
     std::snprintf(
         options_text, sizeof options_text,
         "walls %s, collision %.17g, collide_isolated %d, shift_isolated %d, fallback %d, trace %.17g",
-        walls.name.c_str(), collision, int(collide_isolated), int(shift_isolated), int(fallback),
-        trace ? trace_speed : -1.0);
+        walls.name.c_str(), opt.lsmps.collision, int(opt.lsmps.colliding_isolated()),
+        int(opt.lsmps.shift_isolated), int(opt.fallback), opt.trace ? opt.trace_speed : -1.0);
     // --ilu0 appended only when given, so that the checkpoints of runs without it still load
-    const std::string options = std::string(options_text) + (ilu0 ? ", ilu0 1" : "");
+    const std::string options = std::string(options_text) + (opt.ilu0 ? ", ilu0 1" : "");
     // The output's state (section "example.output"): the next frame's time, the picture's T, the running PPE
     // iteration total at the last step, the traces written, the ParaView files written and the last one's
     // time, the trace file's length (flushed per trace; -1 without --trace). The last three are read into
@@ -397,16 +310,17 @@ int main(int argc, char** argv) {
         .add([&] { return double(vtk.pvd().entries().size()); }, [&](double x) { files_saved = x; })
         .add([&] { return vtk.pvd().entries().empty() ? 0.0 : vtk.pvd().entries().back().time; },
              [&](double x) { last_file_time = x; })
-        .add([&] { return trace ? double(file_bytes(trace_path)) : -1.0; },
+        .add([&] { return opt.trace ? double(file_bytes(trace_path)) : -1.0; },
              [&](double x) { trace_bytes = x; });
-    pieces.save_extra = [&](io::checkpoint_sections& s) {
+    opt.pieces.save_extra = [&](io::checkpoint_sections& s) {
       s.add_bytes("example.options", options);
       s.add_int64s("example.counters", counters.values());
       output.save(s, "example.output");
       cases::add_columns(s, "example.obstacle_probe", {&obstacle_t, &obstacle_p});
     };
-    pieces.load_extra = [&](const io::checkpoint_sections& s, const cases::tanaka_dam_break_result& so_far) {
-      const std::string& file = pieces.resume;
+    opt.pieces.load_extra = [&](const io::checkpoint_sections& s,
+                                const cases::tanaka_dam_break_result& so_far) {
+      const std::string& file = opt.pieces.resume;
       if (s.get_bytes("example.options") != options)
         fail("tanaka_dam_break: '", file, "' was written with ", s.get_bytes("example.options"),
              "; this run has ", options, " (resume with the same options)");
@@ -415,7 +329,7 @@ int main(int argc, char** argv) {
       cases::get_columns(s, "example.obstacle_probe", {&obstacle_t, &obstacle_p}, "tanaka_dam_break", file);
       const auto files = static_cast<std::size_t>(files_saved);
       wall_before = so_far.wall_seconds_before;
-      const fs::path pvd = fs::path(out) / "tanaka_dam_break.pvd";
+      const fs::path pvd = fs::path(opt.out) / "tanaka_dam_break.pvd";
       std::vector<io::pvd_entry> entries;
       if (files > 0) {
         std::error_code ec;
@@ -433,8 +347,8 @@ int main(int argc, char** argv) {
                " (resume with the --out of the run that wrote it)");
         entries.resize(files);  // files the interrupted run wrote after the checkpoint are written again
       }
-      vtk = io::vtk_series(fs::path(out) / "tanaka_dam_break", {}, std::move(entries));
-      if (trace) {  // the trace file as it was at the checkpoint (not traced then: from the start)
+      vtk = io::vtk_series(fs::path(opt.out) / "tanaka_dam_break", {}, std::move(entries));
+      if (opt.trace) {  // the trace file as it was at the checkpoint (not traced then: from the start)
         trace_out.close();
         const auto bytes = static_cast<std::uintmax_t>(std::max(0.0, trace_bytes));
         std::error_code ec;
@@ -452,30 +366,32 @@ int main(int argc, char** argv) {
     std::printf(
         "mpskit: Tanaka's dam break%s with the LSMPS scheme (Tanaka 2018 sec. 5.6), L = %g mm, %lld fluid "
         "particles, walls '%s', collision alpha1 %g%s%s%s, to T = %g\n",
-        obstacle ? " with the 10 x 10 mm obstacle" : "", L_mm, static_cast<long long>(db.size()),
-        walls.name.c_str(), collision, collide_isolated ? " (isolated particles too)" : "",
-        shift_isolated ? ", isolated particles in the shifting penalty" : "",
-        fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : (ilu0 ? ", BiCGSTAB-ILU(0)" : ""), T_end);
+        opt.obstacle ? " with the 10 x 10 mm obstacle" : "", opt.L_mm, static_cast<long long>(db.size()),
+        walls.name.c_str(), opt.lsmps.collision,
+        opt.lsmps.colliding_isolated() ? " (isolated particles too)" : "",
+        opt.lsmps.shift_isolated ? ", isolated particles in the shifting penalty" : "",
+        opt.fallback ? ", SparseLU behind BiCGSTAB-Jacobi" : (opt.ilu0 ? ", BiCGSTAB-ILU(0)" : ""),
+        opt.T_end);
     const auto run = [&](auto scene) {  // scene: std::type_identity<the scene>
       using Scene = typename decltype(scene)::type;
-      return cases::run_tanaka_dam_break<Scene>(cfg, T_end, p, true, observe, pieces);
+      return cases::run_tanaka_dam_break<Scene>(cfg, opt.T_end, p, true, observe, opt.pieces);
     };
-    const cases::tanaka_dam_break_result r =
-        fallback ? run(std::type_identity<cases::tanaka_fallback_scene>{})
-        : ilu0   ? run(std::type_identity<cases::tanaka_ilu0_scene>{})
-                 : run(std::type_identity<lsmps_defaults<2>>{});
+    const cases::tanaka_dam_break_result r = opt.fallback
+                                                 ? run(std::type_identity<cases::tanaka_fallback_scene>{})
+                                             : opt.ilu0 ? run(std::type_identity<cases::tanaka_ilu0_scene>{})
+                                                        : run(std::type_identity<lsmps_defaults<2>>{});
     progress.finish();
     const double wall = r.wall_seconds;  // the earlier pieces' included
-    const std::vector<double>& probe_t = obstacle ? obstacle_t : r.probe_t;
-    const std::vector<double>& probe_p = obstacle ? obstacle_p : r.probe_p;
+    const std::vector<double>& probe_t = opt.obstacle ? obstacle_t : r.probe_t;
+    const std::vector<double>& probe_p = opt.obstacle ? obstacle_p : r.probe_p;
 
     int compared = 0, inside = 0;
     {
-      io::csv_writer csv(fs::path(out) / "front.csv",
+      io::csv_writer csv(fs::path(opt.out) / "front.csv",
                          {{"T", "1"}, {"h_star", "1"}, {"band_low", "1"}, {"band_high", "1"}});
       for (std::size_t k = 0; k < r.T.size(); ++k) {
         const auto [lo, hi] =
-            obstacle ? std::pair(std::nan(""), std::nan("")) : cases::front_band(ref, r.T[k]);
+            opt.obstacle ? std::pair(std::nan(""), std::nan("")) : cases::front_band(ref, r.T[k]);
         csv.row({r.T[k], r.Z[k], lo, hi});
         if (std::isnan(lo)) continue;
         ++compared;
@@ -483,17 +399,17 @@ int main(int argc, char** argv) {
       }
     }
     {
-      io::csv_writer csv(fs::path(out) / "probe.csv", {{"t", "s"}, {"p", "Pa"}});
+      io::csv_writer csv(fs::path(opt.out) / "probe.csv", {{"t", "s"}, {"p", "Pa"}});
       for (std::size_t k = 0; k < probe_t.size(); ++k) csv.row({probe_t[k], probe_p[k]});
     }
     const cases::impact_measures m = cases::measure_impact(probe_t, probe_p, 0.01, 0.002);
-    const std::string gp = (fs::path(out) / "plot.gp").string();
+    const std::string gp = (fs::path(opt.out) / "plot.gp").string();
     {
-      const std::string o = out;
+      const std::string o = opt.out;
       std::ofstream g(gp);
       g << "set terminal pngcairo size 1000,500\nset datafile separator whitespace\n"
         << "set output '" << o << "/particles.png'\nset size ratio -1\n"
-        << "set title 'Tanaka dam break, L = " << L_mm << " mm, T = " << T_snap
+        << "set title 'Tanaka dam break, L = " << opt.L_mm << " mm, T = " << T_snap
         << ": particles coloured by pressure (Pa)'\n"
         << "set xlabel 'x (m)'\nset ylabel 'y (m)'\nset palette rgbformulae 33,13,10\n"
         << "plot '" << o << "/particles.dat' using 1:2:3 with points pt 7 ps 0.5 palette notitle\n"
@@ -501,10 +417,11 @@ int main(int argc, char** argv) {
         << "set output '" << o << "/front.png'\nset title 'front h/h0 against T = t sqrt(2g/h0)'\n"
         << "set xlabel 'T'\nset ylabel 'h/h0'\n"
         << "plot '" << o
-        << "/front.csv' using 1:2 every ::1 with lines lw 2 title 'mpskit LSMPS, L = " << L_mm << " mm'"
-        << (obstacle ? ""
-                     : ", '' using 1:3 every ::1 with lines dt 2 lc rgb 'gray' title 'data band (+-10 %)', "
-                       "'' using 1:4 every ::1 with lines dt 2 lc rgb 'gray' notitle")
+        << "/front.csv' using 1:2 every ::1 with lines lw 2 title 'mpskit LSMPS, L = " << opt.L_mm << " mm'"
+        << (opt.obstacle
+                ? ""
+                : ", '' using 1:3 every ::1 with lines dt 2 lc rgb 'gray' title 'data band (+-10 %)', "
+                  "'' using 1:4 every ::1 with lines dt 2 lc rgb 'gray' notitle")
         << "\n";
       if (std::isfinite(
               m.t_arrival))  // a probe dry throughout has nothing to plot (gnuplot would fail on it)
@@ -517,7 +434,7 @@ int main(int argc, char** argv) {
     const bool pictures = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str()) == 0;
 
     std::printf("\nmpskit: Tanaka's dam break%s, LSMPS-A order 2, walls '%s' (docs/lsmps_scheme.md)\n",
-                obstacle ? " with the obstacle" : "", walls.name.c_str());
+                opt.obstacle ? " with the obstacle" : "", walls.name.c_str());
     if (r.failed)
       std::printf("  FAILED at T = %.3f (t = %.4f s): %s\n", r.T_failed, r.T_failed / db.t_star(1.0),
                   r.failure.c_str());
@@ -525,10 +442,11 @@ int main(int argc, char** argv) {
       std::printf(
           "  stopped after %g s of this process at T = %.4f (of %g), checkpoint written: continue with "
           "--resume %s (and --checkpoint %s to go on writing it; the numbers below are the run's so far)\n",
-          pieces.stop_after, r.T_reached, T_end, pieces.checkpoint.c_str(), pieces.checkpoint.c_str());
+          opt.pieces.stop_after, r.T_reached, opt.T_end, opt.pieces.checkpoint.c_str(),
+          opt.pieces.checkpoint.c_str());
     else
-      std::printf("  reached T = %g (t = %.4f s)\n", T_end, T_end / db.t_star(1.0));
-    if (!obstacle)
+      std::printf("  reached T = %g (t = %.4f s)\n", opt.T_end, opt.T_end / db.t_star(1.0));
+    if (!opt.obstacle)
       std::printf(
           "  front h/h0: %d of %d samples inside the data band (Martin & Moyce 1952, Koshizuka & Oka 1996, "
           "+-10 %%)\n",
@@ -566,7 +484,7 @@ int main(int argc, char** argv) {
           r.ppe_solves, double(r.ppe_solves) / double(std::max(1L, r.steps)),
           double(r.ppe_iterations) / double(r.ppe_solves), split, r.ppe_factorisations);
     }
-    if (fallback)
+    if (opt.fallback)
       std::printf("  PPE solves made by the SparseLU fallback (--fallback) %ld\n", r.ppe_fallbacks);
     if (std::isfinite(m.t_arrival)) {
       // NaN when no step number in the window is a multiple of 100 (coarse runs: 79 steps at 5 mm)
@@ -584,13 +502,13 @@ int main(int argc, char** argv) {
           m.impulse, m.peak, filtered, sparse, cases::tanaka_dam_break::paper_peak_pressure);
     } else
       std::printf("  probe (%.0f, %.0f) mm: dry to the end\n", probe[0] * 1e3, probe[1] * 1e3);
-    if (trace)
+    if (opt.trace)
       std::printf(
           "  trace: %d step(s) with a fluid particle faster than %g m/s in %s/trace.txt (pressures in "
           "rho g H)\n",
-          traced, trace_speed, out.c_str());
+          traced, opt.trace_speed, opt.out.c_str());
     io::print_summary(std::cout, counters.summary(wall));
-    std::printf("  output: %s/tanaka_dam_break.pvd (%ld files), front.csv, probe.csv%s\n", out.c_str(),
+    std::printf("  output: %s/tanaka_dam_break.pvd (%ld files), front.csv, probe.csv%s\n", opt.out.c_str(),
                 long(vtk.files_written()),
                 pictures
                     ? (std::isfinite(m.t_arrival) ? ", particles.png, front.png, probe.png"

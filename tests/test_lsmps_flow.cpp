@@ -20,6 +20,7 @@
 #include "cases/hydrostatic_polygon.hpp"
 #include "cases/polygon_tank.hpp"
 #include "cases/run_measures.hpp"
+#include "cases/tanaka_dam_break_options.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
 #include "cases/tanaka_dam_break_slab.hpp"
 #include "cases/tanaka_ilu0_scene.hpp"
@@ -584,6 +585,115 @@ TEST_SUITE("bad_input") {
     p.boundary_filter.size_ratio = 0.9;  // a factor between diameters: ≥ 1
     CHECK_THROWS_WITH_AS(simulation<lsmps_defaults<2>>(p, s0, &tank.walls),
                          doctest::Contains("size_ratio"), mpskit::error);
+  }
+
+  // examples/tanaka_dam_break.cpp's command line (cases/tanaka_dam_break_options.hpp): the examples are not
+  // built in CI, so their defaults and refusals are checked here. Each refusal names its option.
+  TEST_CASE("tanaka_dam_break's command line: defaults, readings and refusals") {
+    const auto read = [](std::vector<const char*> args) {
+      args.insert(args.begin(), "tanaka_dam_break");
+      return cases::read_tanaka_dam_break_options(static_cast<int>(args.size()), args.data(), "data-dir");
+    };
+    // The defaults: the library's impact configuration (the example's header says so), 5 mm to T = 3.2.
+    const scheme::lsmps_params<2> impact = scheme::lsmps_impact_params<2>();
+    const cases::tanaka_dam_break_options d = read({});
+    CHECK(d.L_mm == 5.0);
+    CHECK(d.T_end == 3.2);
+    CHECK(d.lsmps.collision == impact.collision.alpha1);
+    CHECK(d.lsmps.colliding_isolated() == impact.collision.isolated);
+    CHECK(d.lsmps.shift_isolated == impact.shift_isolated_penalty);
+    CHECK(d.lsmps.walls_name == cases::tanaka_impact_walls);
+    const scheme::lsmps_params<2> q = d.lsmps.params("test");  // what the example runs with
+    CHECK(q.copy_two_point == impact.copy_two_point);
+    CHECK(q.shift.projection == impact.shift.projection);
+    CHECK(q.active_set_solves == impact.active_set_solves);
+    CHECK(q.active_set_copies == impact.active_set_copies);
+    CHECK(q.own_loop.enabled == impact.own_loop.enabled);
+    CHECK(q.op.max_condition == impact.op.max_condition);
+    CHECK(q.shift_velocity_limit == impact.shift_velocity_limit);
+    CHECK(q.collision.alpha1 == impact.collision.alpha1);
+    CHECK(q.collision.isolated == impact.collision.isolated);
+    CHECK(q.shift_isolated_penalty == impact.shift_isolated_penalty);
+    CHECK(d.data == "data-dir");
+    CHECK_NOTHROW(d.validate());
+    CHECK(d.config().L == doctest::Approx(5e-3).epsilon(1e-15));
+    CHECK_FALSE(d.config().closed_top);
+
+    // Readings: --full is 1 mm; --collision 0 lets the default "isolated particles collide" lapse; the lid
+    // and the obstacle reach the case.
+    const auto f =
+        read({"--full", "--collision", "0", "--T", "1.5", "--lid", "300", "--obstacle", "--out", "o"});
+    CHECK(f.L_mm == 1.0);
+    CHECK(f.T_end == 1.5);
+    CHECK_FALSE(f.lsmps.colliding_isolated());
+    CHECK(f.out == "o");
+    CHECK_NOTHROW(f.validate());
+    const cases::tanaka_dam_break_config cfg = f.config();
+    CHECK(cfg.closed_top);
+    CHECK(cfg.vessel_height == doctest::Approx(0.3).epsilon(1e-15));
+    CHECK(cfg.obstacle_width > 0.0);
+    CHECK_NOTHROW(read({"--slab", "4", "--walls", "parent_gradient", "--slab-walls"}).validate());
+    CHECK_NOTHROW(read({"--no-collide-isolated", "--collision", "0"}).validate());
+    CHECK_NOTHROW(read({"--checkpoint", "ck.bin", "--every", "600", "--stop-after", "60"}).validate());
+
+    // Reading: a number is the whole text (no atof zero), an option needs its value, an unknown one is
+    // refused.
+    CHECK_THROWS_WITH_AS(read({"--collision", "abc"}), doctest::Contains("--collision 'abc'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--L", "3mm"}), doctest::Contains("--L '3mm'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--T", "inf"}), doctest::Contains("--T 'inf'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--T"}), doctest::Contains("--T needs a value"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--lenght", "3"}), doctest::Contains("unknown option '--lenght'"),
+                         mpskit::error);
+
+    // Validation, before any output.
+    const auto refused = [&](std::vector<const char*> args, const char* text) {
+      const cases::tanaka_dam_break_options o = read(std::move(args));
+      CHECK_THROWS_WITH_AS(o.validate(), doctest::Contains(text), mpskit::error);
+    };
+    refused({"--L", "0"}, "--L 0 mm: must be > 0");
+    refused({"--T", "-1"}, "--T -1: must be > 0");
+    refused({"--trace", "-2"}, "--trace -2 m/s: must be >= 0");
+    refused({"--fallback", "--ilu0"}, "--fallback and --ilu0 name two solvers");
+    refused({"--every", "600"}, "need a checkpoint file");
+    refused({"--checkpoint", "ck.bin", "--stop-after", "-1"}, "must be finite and >= 0");
+    refused({"--walls", "nope"}, "wall variant 'nope'");
+    refused({"--collision", "2"}, "alpha1");
+    refused({"--collision", "0", "--collide-isolated"}, "needs the collision stage on");
+    refused({"--slab", "2.5"}, "whole number in [1, 1000]");
+    refused({"--slab", "0"}, "whole number in [1, 1000]");
+    refused({"--slab", "4", "--ilu0"}, "--slab takes neither");
+    refused({"--slab", "4", "--resume", "ck.bin"}, "--slab takes neither");
+    refused({"--slab", "4", "--walls", "neumann_points"}, "--slab takes --walls");
+    refused({"--slab-walls"}, "--slab-walls needs --slab N");
+    // The case's own check: a lid at or below the water (the column is 200 mm high).
+    CHECK_THROWS_WITH_AS(read({"--lid", "150"}).config(), doctest::Contains("vessel_height"), mpskit::error);
+  }
+
+  // examples/cases/cli.hpp, which every example and benchmark reads its numbers through.
+  TEST_CASE("cases/cli.hpp: numbers are the whole text, finite and within their bound") {
+    CHECK(cases::parse_number("--x", "1e-3") == 1e-3);
+    CHECK(cases::parse_number("--x", "-2.5") == -2.5);
+    CHECK(cases::parse_number("--x", "0", 0.0) == 0.0);
+    CHECK_THROWS_WITH_AS(cases::parse_number("--x", ""), doctest::Contains("--x '': must be a finite number"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_number("--x", "abc"), doctest::Contains("--x 'abc'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_number("--x", "1.5x"), doctest::Contains("--x '1.5x'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_number("--x", "nan"), doctest::Contains("--x 'nan'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_number("--x", "-inf"), doctest::Contains("--x '-inf'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_number("--x", "-1", 0.0),
+                         doctest::Contains("must be a finite number >= 0"), mpskit::error);
+    CHECK(cases::parse_numbers("--xs", "3,3.5,4", 0.0) == std::vector<double>{3.0, 3.5, 4.0});
+    CHECK_THROWS_WITH_AS(cases::parse_numbers("--xs", "3,,4", 0.0), doctest::Contains("--xs ''"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_numbers("--xs", "", 0.0), doctest::Contains("--xs: an empty list"),
+                         mpskit::error);
+    CHECK(cases::parse_integer("--n", "25", 1) == 25);
+    CHECK_THROWS_WITH_AS(cases::parse_integer("--n", "2.5", 1),
+                         doctest::Contains("2.5 is not a whole number"), mpskit::error);
+    CHECK_THROWS_WITH_AS(cases::parse_integer("--n", "0", 1), doctest::Contains(">= 1"), mpskit::error);
+    CHECK(cases::parse_integers("--ns", "25,50", 1) == std::vector<int>{25, 50});
+    CHECK_THROWS_WITH_AS(cases::parse_integers("--ns", "25,5e9", 1), doctest::Contains("not a whole number"),
+                         mpskit::error);
   }
 }
 

@@ -23,6 +23,7 @@
 #include "cases/polygon_tank.hpp"
 #include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
+#include "cases/multires_dam_break_options.hpp"
 #include "cases/tanaka_obstacle_multires.hpp"
 #include "cases/taylor_green.hpp"
 #include "mpskit/core/state.hpp"
@@ -2254,3 +2255,70 @@ TEST_SUITE("restart") {
     CHECK(la.dL.norm() > 0.0);
   }
 }  // TEST_SUITE
+
+TEST_SUITE("bad_input") {
+  // examples/multires_dam_break.cpp's command line (cases/multires_dam_break_options.hpp; the README's main
+  // example): the examples are not built in CI, so its defaults and refusals are checked here.
+  TEST_CASE("multires_dam_break's command line: defaults, readings and refusals") {
+    const auto read = [](std::vector<const char*> args) {
+      args.insert(args.begin(), "multires_dam_break");
+      return cases::read_multires_dam_break_options(static_cast<int>(args.size()), args.data());
+    };
+    // The defaults: 5 mm refined 2:1 within 30 mm of the block, ramp to 60 mm, T = 3.8, with the library's
+    // impact configuration (the active set's release and warm start as the preset has them).
+    const scheme::lsmps_params<2> impact = scheme::lsmps_impact_params<2>();
+    const cases::multires_dam_break_options d = read({});
+    CHECK(d.L_mm == 5.0);
+    CHECK(d.ratio == 2.0);
+    CHECK(d.T_end == 3.8);
+    CHECK(d.r0_mm == 30.0);
+    CHECK(d.r1_mm == 60.0);
+    CHECK(d.single);
+    CHECK_NOTHROW(d.validate());
+    const scheme::lsmps_params<2> p = d.params();
+    CHECK(p.active_set_solves == impact.active_set_solves);
+    CHECK(p.active_set_release == impact.active_set_release);
+    CHECK(p.active_set_warm_start == impact.active_set_warm_start);
+    CHECK(p.op.max_condition == impact.op.max_condition);
+    CHECK(p.collision.alpha1 == impact.collision.alpha1);
+    CHECK(p.collision.isolated == impact.collision.isolated);
+    CHECK(p.shift_isolated_penalty == impact.shift_isolated_penalty);
+
+    // Readings: --full is the paper's 5 mm at 5:1; the scheme's switches reach the parameters.
+    const auto f = read({"--full", "--no-single", "--release", "--warm", "--no-shift-isolated", "--collision",
+                         "0.4", "--no-collide-isolated", "--r0", "20", "--r1", "50", "--out", "o"});
+    CHECK(f.L_mm == 5.0);
+    CHECK(f.ratio == 5.0);
+    CHECK_FALSE(f.single);
+    CHECK(f.r0_mm == 20.0);
+    CHECK(f.out == "o");
+    CHECK_NOTHROW(f.validate());
+    const scheme::lsmps_params<2> q = f.params();
+    CHECK(q.active_set_release);
+    CHECK(q.active_set_warm_start);
+    CHECK_FALSE(q.shift_isolated_penalty);
+    CHECK(q.collision.alpha1 == 0.4);
+    CHECK_FALSE(q.collision.isolated);
+
+    // Reading refusals.
+    CHECK_THROWS_WITH_AS(read({"--r0", "abc"}), doctest::Contains("multires_dam_break: --r0 'abc'"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--ratio"}), doctest::Contains("--ratio needs a value"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--single"}), doctest::Contains("unknown option '--single'"), mpskit::error);
+    // Validation, before any output.
+    const auto refused = [&](std::vector<const char*> args, const char* text) {
+      const cases::multires_dam_break_options o = read(std::move(args));
+      CHECK_THROWS_WITH_AS(o.validate(), doctest::Contains(text), mpskit::error);
+    };
+    refused({"--L", "-5"}, "--L -5 mm: must be > 0");
+    refused({"--ratio", "0.5"}, "--ratio 0.5: must be >= 1");
+    refused({"--T", "0"}, "--T 0: must be > 0");
+    refused({"--r0", "60", "--r1", "30"}, "need 0 <= r0 < r1");
+    refused({"--r0", "-1"}, "need 0 <= r0 < r1");
+    refused({"--walls", "nope"}, "wall variant 'nope'");
+    refused({"--collision", "1.6"}, "alpha1");
+    refused({"--collision", "0", "--collide-isolated"}, "needs the collision stage on");
+    // --release with wall options that have no active set (the scheme's own refusal, before any output).
+    refused({"--walls", "parent_gradient", "--release"}, "active_set");
+  }
+}

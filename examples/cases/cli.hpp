@@ -56,4 +56,19 @@ inline std::vector<int> parse_integers(const char* what, const std::string& s, i
   return v;
 }
 
+/// Walks a command line (argv[1 .. argc-1]) through `read(arg, value)`, which returns false for an option it
+/// does not know and calls `value()` for the text after an option that takes one; mpskit::error naming `who`
+/// and the option when it is unknown or its value is missing (no option silently ignored).
+template <class Read>
+void read_command_line(const char* who, int argc, const char* const* argv, Read read) {
+  for (int a = 1; a < argc; ++a) {
+    const std::string arg = argv[a];
+    const auto value = [&]() -> std::string {
+      if (a + 1 >= argc) fail(who, ": ", arg, " needs a value");
+      return argv[++a];
+    };
+    if (!read(arg, value)) fail(who, ": unknown option '", arg, "'");
+  }
+}
+
 }  // namespace mpskit::cases
