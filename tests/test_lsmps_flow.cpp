@@ -556,6 +556,24 @@ TEST_SUITE("hydrostatic_polygon") {
   }
 }
 
+namespace {
+/// The settings scheme::lsmps_impact_params sets (its wall variant's and the collision stage's), q against
+/// ref.
+template <class P, class Q>
+void check_impact_settings(const P& q, const Q& ref) {
+  CHECK(q.copy_two_point == ref.copy_two_point);
+  CHECK(q.shift.projection == ref.shift.projection);
+  CHECK(q.active_set_solves == ref.active_set_solves);
+  CHECK(q.active_set_copies == ref.active_set_copies);
+  CHECK(q.own_loop.enabled == ref.own_loop.enabled);
+  CHECK(q.op.max_condition == ref.op.max_condition);
+  CHECK(q.shift_velocity_limit == ref.shift_velocity_limit);
+  CHECK(q.collision.alpha1 == ref.collision.alpha1);
+  CHECK(q.collision.isolated == ref.collision.isolated);
+  CHECK(q.shift_isolated_penalty == ref.shift_isolated_penalty);
+}
+}  // namespace
+
 TEST_SUITE("bad_input") {
   TEST_CASE("LSMPS scheme: walls and geometry must match the scene, volumes must be positive") {
     cases::polygon_tank_config tc;
@@ -604,16 +622,7 @@ TEST_SUITE("bad_input") {
     CHECK(d.lsmps.shift_isolated == impact.shift_isolated_penalty);
     CHECK(d.lsmps.walls_name == cases::tanaka_impact_walls);
     const scheme::lsmps_params<2> q = d.lsmps.params("test");  // what the example runs with
-    CHECK(q.copy_two_point == impact.copy_two_point);
-    CHECK(q.shift.projection == impact.shift.projection);
-    CHECK(q.active_set_solves == impact.active_set_solves);
-    CHECK(q.active_set_copies == impact.active_set_copies);
-    CHECK(q.own_loop.enabled == impact.own_loop.enabled);
-    CHECK(q.op.max_condition == impact.op.max_condition);
-    CHECK(q.shift_velocity_limit == impact.shift_velocity_limit);
-    CHECK(q.collision.alpha1 == impact.collision.alpha1);
-    CHECK(q.collision.isolated == impact.collision.isolated);
-    CHECK(q.shift_isolated_penalty == impact.shift_isolated_penalty);
+    check_impact_settings(q, impact);
     CHECK(d.data == "data-dir");
     CHECK_NOTHROW(d.validate());
     CHECK(d.config().L == doctest::Approx(5e-3).epsilon(1e-15));
@@ -1526,16 +1535,7 @@ TEST_SUITE("dam_break_lsmps") {
     v.collision.isolated = true;
     v.shift_isolated_penalty = true;
     const auto check = [&](const auto& q, const auto& paper) {
-      CHECK(q.copy_two_point == v.copy_two_point);
-      CHECK(q.shift.projection == v.shift.projection);
-      CHECK(q.active_set_solves == v.active_set_solves);
-      CHECK(q.active_set_copies == v.active_set_copies);
-      CHECK(q.own_loop.enabled == v.own_loop.enabled);
-      CHECK(q.op.max_condition == v.op.max_condition);
-      CHECK(q.shift_velocity_limit == v.shift_velocity_limit);
-      CHECK(q.collision.alpha1 == v.collision.alpha1);
-      CHECK(q.collision.isolated == v.collision.isolated);
-      CHECK(q.shift_isolated_penalty == v.shift_isolated_penalty);
+      check_impact_settings(q, v);
       // untouched: Tanaka's Table 2 and the library's other defaults
       CHECK(q.copy_row == paper.copy_row);
       CHECK(q.shift_second_wall == paper.shift_second_wall);
