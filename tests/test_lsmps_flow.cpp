@@ -1342,6 +1342,46 @@ tanaka_run run_tanaka_dam_break(double T_end, const std::string& walls, double L
 }  // namespace
 
 TEST_SUITE("dam_break_lsmps") {
+  TEST_CASE("lsmps_params::surface_copies_zero: the copies of surface particles are p = 0 rows") {
+    // Tanaka's dam break at 10 mm to T = 0.3 (the column's first collapse): the column's free surface meets
+    // the left wall and the floor, so surface particles have copies from the first step. With the option
+    // (the paper's reading, Tanaka 2018 §4.6) every such copy is exactly 0 after each step; by default
+    // (deviation 3) they are unknowns of the parent-gradient row, and some are solved away from 0 — so the
+    // test tells the two apart.
+    cases::tanaka_dam_break_config c;
+    c.L = 0.01;
+    const auto surface_copies = [&](bool zero) {
+      scheme::lsmps_params<2> p;
+      p.surface_copies_zero = zero;
+      long copies = 0, nonzero = 0;
+      const auto observe = [&](const auto& sim) {
+        const auto& st = sim.state();
+        const auto& P = st.template get<field::pressure>();
+        for (index_t k = st.n_real(); k < st.size(); ++k)
+          if ((st.flags()[static_cast<std::size_t>(k)] & flag::surface) != 0) {
+            ++copies;
+            nonzero += P[k] != 0.0;
+          }
+      };
+      const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(c, 0.3, p, true, observe);
+      CHECK_FALSE(r.failed);
+      CHECK(r.steps > 0);
+      return std::pair(copies, nonzero);
+    };
+    const auto [copies_zero, nonzero_zero] = surface_copies(true);
+    CHECK(copies_zero > 0);
+    CHECK(nonzero_zero == 0);
+    const auto [copies_default, nonzero_default] = surface_copies(false);
+    CHECK(copies_default > 0);
+    CHECK(nonzero_default > 0);
+    MESSAGE("surface copies over the run: ", copies_zero, " (option), ", copies_default, " (default, ",
+            nonzero_default, " of them p != 0)");
+    // Only with the parent-gradient rows: with the others the copies of surface particles are not unknowns.
+    scheme::lsmps_params<2> p;
+    p.surface_copies_zero = true;
+    p.copy_row = scheme::copy_row_kind::neumann_points;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("surface_copies_zero"), mpskit::error);
+  }
   TEST_CASE("Tanaka's vessel with closed_top: the lid closes the chain, its normal into the vessel") {
     // Open by default: three elements, and a point above the vessel is not behind any wall. closed_top adds
     // the fourth element (right, top) -> (left, top); its left normal is -y (into the vessel), so the

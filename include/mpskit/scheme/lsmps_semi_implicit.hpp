@@ -281,6 +281,15 @@ struct lsmps_params {
   /// from T ≈ 1.35). 0 gives the parent-gradient row alone. Accepted: [0, inf).
   double copy_two_point = 0.0;
   copy_velocity_in_source copy_velocity = copy_velocity_in_source::extrapolated;  ///< see the enum
+  /// Copies of free-surface particles are Dirichlet p = 0 rows, as their parents are (opt-in; the paper's
+  /// reading: Tanaka 2018 §4.6, a copy's surface state is its parent's, and surface particles are Dirichlet
+  /// p = 0; issue #7 item 4, "surface fluid and their copies p = 0"). By default they are unknowns with the
+  /// parent-gradient row (docs/lsmps_scheme.md deviation 3: p = 0 put a wrong value on a copy below its
+  /// parent on an inclined wall, 1.6 % of ρ g H at the first step); in the far-wall impact of Tanaka's dam
+  /// break such a copy of a sparse surface particle was solved at 114–155 ρ g H and kicked its neighbours.
+  /// Needs copy_row = parent_gradient (with the other rows the copies of surface particles are p = 0 already,
+  /// or not unknowns at all).
+  bool surface_copies_zero = false;
   /// fluid rows with a diagonal ≥ 0 (see the enum)
   wrong_sign_row wrong_sign_rows = wrong_sign_row::dirichlet;
   /// the det F rows' operator (see the enum)
@@ -377,6 +386,9 @@ struct lsmps_params {
               "needs active_set_solves > 0 (the copies join the active set's repeated solves)");
     v.require(!(active_set_copies && copy_row == copy_row_kind::neumann_points), "active_set_copies",
               "needs copy rows (copy_row = neumann_points has no copy unknowns)");
+    v.require(!(surface_copies_zero && copy_row != copy_row_kind::parent_gradient), "surface_copies_zero",
+              "needs copy_row = parent_gradient (with the other rows the copies of surface particles are not "
+              "unknowns)");
     v.require(
         !(copy_two_point > 0.0 && copy_row == copy_row_kind::neumann_points), "copy_two_point",
         "a two-point copy row needs copy_row = parent_gradient (with neumann_points the copies have no row)");
@@ -1688,10 +1700,10 @@ class lsmps_semi_implicit {
         // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
         // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step),
         // except the copies the own-loop guard made p = 0 rows and those in the active set
-        // (active_set_copies).
+        // (active_set_copies); with surface_copies_zero none (p = 0, the paper's reading).
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
         const bool copy_unknown =
-            i >= n && p_.copy_row == copy_row_kind::parent_gradient &&
+            i >= n && p_.copy_row == copy_row_kind::parent_gradient && !p_.surface_copies_zero &&
             !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]) &&
             !active_set_[static_cast<std::size_t>(i)];  // active_set_copies
         if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
