@@ -52,10 +52,10 @@
 //            with no guard activation (25 min on one thread, the front in the band at 27 of 65 samples;
 //            docs/validation.md); 1 mm (2026-12-05, two threads) failed at T = 1.498 (BiCGSTAB-Jacobi not
 //            converging from the warm start; since the cold restart, solver_params::cold_restart, it gets
-//            past that point, to T = 2.82 so far with dt down to 3.2e-6 s from T = 2.64; not yet run to the
-//            end), and with --fallback reached T = 3.2 before the cold restart (67 min with another job
-//            beside it, 3 LU solves, no guard activation, closest pair 0.410 L, band 28 of 65;
-//            docs/lsmps_scheme.md).
+//            past that point, to T = 2.86 with dt down to 3.2e-6 s from T = 2.64 before its machine session
+//            ended; not yet run to the end), and with --fallback reached T = 3.2 before the cold restart (67
+//            min with another job beside it, 3 LU solves, no guard activation, closest pair 0.410 L, band 28
+//            of 65; docs/lsmps_scheme.md).
 //   --fallback  the scene with ppe::with_fallback<bicgstab_jacobi, sparse_lu> (docs/run.md): a step whose
 //            BiCGSTAB-Jacobi solve fails (not converged within the cap, or broken down) is solved by
 //            SparseLU, counted in the summary; a run whose iterative solves all succeed is the same as
@@ -91,7 +91,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>

@@ -643,7 +643,13 @@ TEST_SUITE("bad_input") {
     CHECK(cfg.obstacle_width > 0.0);
     CHECK_NOTHROW(read({"--slab", "4", "--walls", "parent_gradient", "--slab-walls"}).validate());
     CHECK_NOTHROW(read({"--no-collide-isolated", "--collision", "0"}).validate());
-    CHECK_NOTHROW(read({"--checkpoint", "ck.bin", "--every", "600", "--stop-after", "60"}).validate());
+    const auto pieces =
+        read({"--checkpoint", "ck.bin", "--every", "600", "--stop-after", "60", "--resume", "r.bin"});
+    CHECK_NOTHROW(pieces.validate());
+    CHECK(pieces.pieces.checkpoint == "ck.bin");
+    CHECK(pieces.pieces.checkpoint_interval == 600.0);
+    CHECK(pieces.pieces.stop_after == 60.0);
+    CHECK(pieces.pieces.resume == "r.bin");
 
     // Reading: a number is the whole text (no atof zero), an option needs its value, an unknown one is
     // refused.
@@ -670,7 +676,10 @@ TEST_SUITE("bad_input") {
     refused({"--collision", "0", "--collide-isolated"}, "needs the collision stage on");
     refused({"--slab", "2.5"}, "whole number in [1, 1000]");
     refused({"--slab", "0"}, "whole number in [1, 1000]");
-    refused({"--slab", "4", "--ilu0"}, "--slab takes neither");
+    for (const char* two_d : {"--obstacle", "--fallback", "--ilu0"})
+      refused({"--slab", "4", two_d}, "--slab takes neither");
+    refused({"--slab", "4", "--trace", "7"}, "--slab takes neither");
+    refused({"--slab", "4", "--checkpoint", "ck.bin"}, "--slab takes neither");
     refused({"--slab", "4", "--resume", "ck.bin"}, "--slab takes neither");
     refused({"--slab", "4", "--walls", "neumann_points"}, "--slab takes --walls");
     refused({"--slab-walls"}, "--slab-walls needs --slab N");
@@ -1353,7 +1362,7 @@ TEST_SUITE("dam_break_lsmps") {
     const auto surface_copies = [&](bool zero) {
       scheme::lsmps_params<2> p;
       p.surface_copies_zero = zero;
-      long copies = 0, nonzero = 0;
+      long copies = 0, nonzero = 0, inner_nonzero = 0;
       const auto observe = [&](const auto& sim) {
         const auto& st = sim.state();
         const auto& P = st.template get<field::pressure>();
@@ -1361,11 +1370,14 @@ TEST_SUITE("dam_break_lsmps") {
           if ((st.flags()[static_cast<std::size_t>(k)] & flag::surface) != 0) {
             ++copies;
             nonzero += P[k] != 0.0;
+          } else {
+            inner_nonzero += P[k] != 0.0;  // copies of inner parents: unknowns either way
           }
       };
       const cases::tanaka_dam_break_result r = cases::run_tanaka_dam_break(c, 0.3, p, true, observe);
       CHECK_FALSE(r.failed);
       CHECK(r.steps > 0);
+      CHECK(inner_nonzero > 0);
       return std::pair(copies, nonzero);
     };
     const auto [copies_zero, nonzero_zero] = surface_copies(true);

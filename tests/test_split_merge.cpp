@@ -20,10 +20,10 @@
 #endif
 
 #include "archetypes/resolution.hpp"
+#include "cases/multires_dam_break_options.hpp"
 #include "cases/polygon_tank.hpp"
 #include "cases/run_measures.hpp"
 #include "cases/tanaka_dam_break_run.hpp"
-#include "cases/multires_dam_break_options.hpp"
 #include "cases/tanaka_obstacle_multires.hpp"
 #include "cases/taylor_green.hpp"
 #include "mpskit/core/state.hpp"
@@ -2285,12 +2285,16 @@ TEST_SUITE("bad_input") {
     CHECK(p.shift_isolated_penalty == impact.shift_isolated_penalty);
 
     // Readings: --full is the paper's 5 mm at 5:1; the scheme's switches reach the parameters.
-    const auto f = read({"--full", "--no-single", "--release", "--warm", "--no-shift-isolated", "--collision",
-                         "0.4", "--no-collide-isolated", "--r0", "20", "--r1", "50", "--out", "o"});
+    const auto f =
+        read({"--full", "--no-single", "--release", "--warm", "--no-shift-isolated", "--collision", "0.4",
+              "--no-collide-isolated", "--r0", "20", "--r1", "50", "--contact-fallback", "--out", "o"});
     CHECK(f.L_mm == 5.0);
     CHECK(f.ratio == 5.0);
     CHECK_FALSE(f.single);
     CHECK(f.r0_mm == 20.0);
+    CHECK(f.r1_mm == 50.0);
+    CHECK(f.contact_fallback);
+    CHECK_FALSE(d.contact_fallback);
     CHECK(f.out == "o");
     CHECK_NOTHROW(f.validate());
     const scheme::lsmps_params<2> q = f.params();
@@ -2319,6 +2323,7 @@ TEST_SUITE("bad_input") {
     refused({"--collision", "1.6"}, "alpha1");
     refused({"--collision", "0", "--collide-isolated"}, "needs the collision stage on");
     // --release with wall options that have no active set (the scheme's own refusal, before any output).
-    refused({"--walls", "parent_gradient", "--release"}, "active_set");
+    refused({"--walls", "parent_gradient", "--release"}, "active_set_release");
+    refused({"--warm", "--no-single"}, "active_set_warm_start");
   }
 }

@@ -114,8 +114,8 @@ struct tanaka_dam_break_options {
   tanaka_dam_break_config config() const {
     tanaka_dam_break_config cfg = obstacle ? tanaka_obstacle_config(1e-3 * L_mm) : tanaka_dam_break_config{};
     cfg.L = 1e-3 * L_mm;
-    if (lid_mm !=
-        0.0) {  // cfg.validate() checks it against the column (a lid at or below the water is refused)
+    // cfg.validate() checks the lid against the column (a lid at or below the water is refused)
+    if (lid_mm != 0.0) {
       cfg.vessel_height = 1e-3 * lid_mm;
       cfg.closed_top = true;
     }
