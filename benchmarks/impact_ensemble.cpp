@@ -79,6 +79,8 @@ int main(int argc, char** argv) {
         fail("bench_impact_ensemble: unexpected argument '", argv[a],
              "' (see the file's comment for the usage)");
     }
+    if (collide_isolated && collision == 0.0)  // nothing collides without the stage: not recorded as on
+      fail("bench_impact_ensemble: --collide-isolated needs the collision stage on (--collision ALPHA1 > 0)");
     if (header)
       std::printf(
           "walls,bound,taper,max_condition,courant,filter_strength,shift_limit,L_mm,reached,T_last,steps,"
