@@ -134,11 +134,7 @@ int main(int argc, char** argv) {
   }
   try {
     opt.validate();  // refuses bad input before any output
-    const double L = 1e-3 * opt.L_mm, Lf = L / opt.ratio;
-    const cases::tanaka_dam_break_config cfg_coarse = cases::tanaka_obstacle_config(L);
-    const cases::tanaka_dam_break_config cfg_fine = cases::tanaka_obstacle_config(Lf);
-    cfg_coarse.validate();
-    cfg_fine.validate();
+    const cases::tanaka_dam_break_config cfg_coarse = opt.coarse_config(), cfg_fine = opt.fine_config();
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg_coarse);
     const double sqrt_gH = std::sqrt(cfg_coarse.g * cfg_coarse.column_height);  // issue #9's speed scale
 
@@ -339,7 +335,7 @@ int main(int argc, char** argv) {
       for (std::size_t k = 0; k < runs.size(); ++k)
         g << (k ? ", " : "") << "'" << o << "/front.csv' using 1:" << k + 2
           << " every ::1 with lines lw 2 title '" << runs[k].name << ", " << fmt_mm(runs[k].L) << " mm"
-          << (k == 0 ? " / " + fmt_mm(Lf) + " mm" : std::string()) << "'";
+          << (k == 0 ? " / " + fmt_mm(cfg_fine.L) + " mm" : std::string()) << "'";
       g << "\n";
       // The far-wall probe around the impact (from 10 ms before t_wet to 20 ms after it).
       // Every step's sample, one-step spikes clipped at twice the largest 2 ms-filtered peak (they reach

@@ -685,6 +685,8 @@ TEST_SUITE("bad_input") {
     refused({"--slab-walls"}, "--slab-walls needs --slab N");
     // The case's own check: a lid at or below the water (the column is 200 mm high).
     CHECK_THROWS_WITH_AS(read({"--lid", "150"}).config(), doctest::Contains("vessel_height"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--L", "150"}).config(), doctest::Contains("tanaka_dam_break_config.L"),
+                         mpskit::error);
   }
 
   // examples/cases/cli.hpp, which every example and benchmark reads its numbers through.

@@ -2315,6 +2315,7 @@ TEST_SUITE("bad_input") {
       CHECK_THROWS_WITH_AS(o.validate(), doctest::Contains(text), mpskit::error);
     };
     refused({"--L", "-5"}, "--L -5 mm: must be > 0");
+    refused({"--L", "150"}, "tanaka_dam_break_config.L");  // above the 100 mm column: the case refuses it
     refused({"--ratio", "0.5"}, "--ratio 0.5: must be >= 1");
     refused({"--T", "0"}, "--T 0: must be > 0");
     refused({"--r0", "60", "--r1", "30"}, "need 0 <= r0 < r1");

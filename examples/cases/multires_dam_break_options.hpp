@@ -30,8 +30,13 @@ struct multires_dam_break_options {
     return p;
   }
 
+  /// The obstacle case at the coarse (L_mm) and the fine (L_mm / ratio) spacing; validated (an --L above the
+  /// column's width is refused).
+  tanaka_dam_break_config coarse_config() const { return obstacle_config(1e-3 * L_mm); }
+  tanaka_dam_break_config fine_config() const { return obstacle_config(1e-3 * L_mm / ratio); }
+
   /// The refusals before any output: --L, --T > 0; --ratio >= 1; 0 <= --r0 < --r1;
-  /// impact_scheme_options::validate's; params()'s. mpskit::error naming the option.
+  /// impact_scheme_options::validate's; params()'s; the two configurations'. mpskit::error naming the option.
   void validate() const {
     const char* who = "multires_dam_break";
     if (!(L_mm > 0.0 && std::isfinite(L_mm))) fail(who, ": --L ", L_mm, " mm: must be > 0");
@@ -41,6 +46,15 @@ struct multires_dam_break_options {
       fail(who, ": --r0 ", r0_mm, " mm, --r1 ", r1_mm, " mm: need 0 <= r0 < r1");
     lsmps.validate(who);
     params();
+    coarse_config();
+    fine_config();
+  }
+
+ private:
+  static tanaka_dam_break_config obstacle_config(double L) {
+    const tanaka_dam_break_config c = tanaka_obstacle_config(L);
+    c.validate();
+    return c;
   }
 };
 
