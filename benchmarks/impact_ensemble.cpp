@@ -8,7 +8,8 @@
 //   OMP_NUM_THREADS=1 build/bench/benchmarks/bench_impact_ensemble --L 3,3.25,3.5 [--T 3.2] [--walls NAME]
 //       [--bound LAMBDA] [--taper LAMBDA] [--max-condition C] [--courant A]
 //       [--filter-strength EPS] [--shift-limit ALPHA_S] [--collision ALPHA1] [--collide-isolated]
-//       [--shift-isolated] [--surface-copies-zero] [--fallback] [--header]
+//       [--shift-isolated] [--surface-copies-zero] [--surface-copies-zero-below C] [--collide-before-ppe]
+//       [--fallback] [--header]
 //
 // --walls: a wall variant of cases::tanaka_wall_variants (default two_point_wall_only_active_set, the
 //          example's);
@@ -22,10 +23,12 @@
 // --shift-isolated: lsmps_params::collision.isolated and shift_isolated_penalty (with --walls
 // two_point_wall_only_active_set_own_loop_copies_conditioned_limited --collision 0.5 both give
 // scheme::lsmps_impact_params<2>()); --surface-copies-zero: lsmps_params::surface_copies_zero (copies of
-// surface particles p = 0, the paper's reading of deviation 3); --fallback: the PPE solver
-// ppe::with_fallback<bicgstab_jacobi, sparse_lu> (docs/run.md) in place of the default BiCGSTAB-Jacobi alone.
-// The blow-up bound is the case's, max |u| ≤ 50 √(gH). A failed run's message goes to stderr.
-// benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
+// surface particles p = 0, the paper's reading of deviation 3); --surface-copies-zero-below C:
+// lsmps_params::surface_copies_zero_below (only copies of surface particles with c < C p = 0);
+// --collide-before-ppe: lsmps_params::collide_before_ppe (the collision stage before the PPE); --fallback:
+// the PPE solver ppe::with_fallback<bicgstab_jacobi, sparse_lu> (docs/run.md) in place of the default
+// BiCGSTAB-Jacobi alone. The blow-up bound is the case's, max |u| ≤ 50 √(gH). A failed run's message goes to
+// stderr. benchmarks/run_impact_ensemble.sh runs the spacings of an ensemble on several processes and counts.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -46,10 +49,10 @@ int main(int argc, char** argv) {
   try {
     std::vector<double> spacings;
     double T_end = 3.2, bound = std::numeric_limits<double>::infinity(), taper = bound, max_condition = 0.0;
-    double courant = 0.1, filter_eps = 0.05, shift_limit = 0.01, collision = 0.0;
+    double courant = 0.1, filter_eps = 0.05, shift_limit = 0.01, collision = 0.0, scz_below = 0.0;
     std::string walls_name = "two_point_wall_only_active_set";
     bool header = false, fallback = false, collide_isolated = false, shift_isolated = false,
-         surface_copies_zero = false;
+         surface_copies_zero = false, collide_before_ppe = false;
     for (int a = 1; a < argc; ++a) {
       const bool v = a + 1 < argc;
       if (!std::strcmp(argv[a], "--L") && v) spacings = bench::parse_numbers("--L (mm)", argv[++a], 1e-6);
@@ -67,6 +70,10 @@ int main(int argc, char** argv) {
         shift_limit = bench::parse_number("--shift-limit", argv[++a], 1e-9);
       else if (!std::strcmp(argv[a], "--collision") && v)
         collision = bench::parse_number("--collision", argv[++a], 0.0);
+      else if (!std::strcmp(argv[a], "--surface-copies-zero-below") && v)
+        scz_below = bench::parse_number("--surface-copies-zero-below", argv[++a], 0.0);
+      else if (!std::strcmp(argv[a], "--collide-before-ppe"))
+        collide_before_ppe = true;
       else if (!std::strcmp(argv[a], "--header")) header = true;
       else if (!std::strcmp(argv[a], "--fallback")) fallback = true;
       else if (!std::strcmp(argv[a], "--collide-isolated"))
@@ -88,7 +95,8 @@ int main(int argc, char** argv) {
           "max_u_sqrt_gH,T_max_u,p_min_rho_g_H,min_pair_ratio,wall_s,own_loop_checked,own_loop_dirichlet,"
           "own_loop_one_point,own_loop_solves,fallback,ppe_fallbacks,ppe_breakdown_restarts,shift_velocity_"
           "clipped,collision_alpha1,collisions,ppe_cold_restarts,"
-          "collide_isolated,shift_isolated,surface_copies_zero\n");
+          "collide_isolated,shift_isolated,surface_copies_zero,surface_copies_zero_below,collide_before_"
+          "ppe\n");
     const cases::tanaka_wall_variant& walls =
         cases::tanaka_wall_variant_named(walls_name, "bench_impact_ensemble --walls");
     for (const double L_mm : spacings) {
@@ -107,6 +115,8 @@ int main(int argc, char** argv) {
       p.collision.isolated = collide_isolated;
       p.shift_isolated_penalty = shift_isolated;
       p.surface_copies_zero = surface_copies_zero;
+      p.surface_copies_zero_below = scz_below;  // these two validated by the scheme
+      p.collide_before_ppe = collide_before_ppe;
       const double sqrt_gH = std::sqrt(c.g * c.column_height),
                    T_per_s = std::sqrt(2.0 * c.g / c.column_width);
       double u_max = 0.0, T_u = 0.0;
@@ -124,13 +134,14 @@ int main(int argc, char** argv) {
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::printf(
           "%s,%g,%g,%g,%g,%g,%g,%g,%d,%.4f,%ld,%ld,%.3f,%.3f,%.4g,%.3f,%.1f,%ld,%ld,%ld,%ld,%d,%ld,%ld,%ld,%"
-          "g,%ld,%ld,%d,%d,%d\n",
+          "g,%ld,%ld,%d,%d,%d,%g,%d\n",
           walls.name.c_str(), bound, taper, max_condition > 0.0 ? max_condition : p.op.max_condition, courant,
           filter_eps, shift_limit, L_mm, r.failed ? 0 : 1, r.failed ? r.T_failed : T_end, r.steps, r.guarded,
           u_max / sqrt_gH, T_u, r.p_min / r.rho_g_h, r.min_pair_ratio, wall, r.own_loop_checked,
           r.own_loop_dirichlet, r.own_loop_one_point, r.own_loop_solves, fallback ? 1 : 0, r.ppe_fallbacks,
           r.ppe_breakdown_restarts, r.shift_velocity_clipped, collision, r.collisions, r.ppe_cold_restarts,
-          int(collide_isolated), int(shift_isolated), int(surface_copies_zero));
+          int(collide_isolated), int(shift_isolated), int(surface_copies_zero), scz_below,
+          int(collide_before_ppe));
       std::fflush(stdout);
       if (r.failed) std::fprintf(stderr, "L = %g mm, T = %.4f: %s\n", L_mm, r.T_failed, r.failure.c_str());
     }

@@ -124,16 +124,12 @@ std::uintmax_t file_bytes(const fs::path& f) {
 
 /// --slab N: the 3D slab (cases/tanaka_dam_break_slab.hpp), N layers deep, with the library's impact
 /// configuration scheme::lsmps_impact_params<3>() or, with --walls parent_gradient, Tanaka's Table 2
-/// (lsmps_params<3>{}); the collision and isolated-particle flags as in 2D. Writes a ParaView series every
-/// 0.25 in T and the front against the data band (front.csv), and prints a summary. Exit status 0 when the
-/// run reached T_end.
+/// (lsmps_params<3>{}); the collision and isolated-particle flags as in 2D (impact_scheme_options::
+/// slab_params). Writes a ParaView series every 0.25 in T and the front against the data band (front.csv),
+/// and prints a summary. Exit status 0 when the run reached T_end.
 int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_sides sides, double T_end,
-             bool table2, double collision, bool collide_isolated, bool shift_isolated,
+             const scheme::lsmps_params<3>& p, const char* scheme_name,
              const std::vector<cases::front_series>& ref, const std::string& out) {
-  scheme::lsmps_params<3> p = table2 ? scheme::lsmps_params<3>{} : scheme::lsmps_impact_params<3>();
-  p.collision.alpha1 = collision;
-  p.collision.isolated = collide_isolated;
-  p.shift_isolated_penalty = shift_isolated;
   // refuses bad input before any output
   const cases::tanaka_slab slab = cases::make_tanaka_slab(cfg, layers, sides);
   fs::create_directories(out);
@@ -158,10 +154,9 @@ int run_slab(const cases::tanaka_dam_break_config& cfg, int layers, cases::slab_
       "mpskit: Tanaka's dam break as a 3D slab (%d layers, B = %g mm, %s) with the LSMPS scheme, "
       "L = %g mm, %lld fluid particles, %s, collision alpha1 %g%s%s, to T = %g\n",
       layers, 1e3 * slab.B, sides == cases::slab_sides::periodic ? "periodic in y" : "end walls", 1e3 * cfg.L,
-      static_cast<long long>(slab.size()),
-      table2 ? "Tanaka's Table 2 (lsmps_params<3>{})" : "scheme::lsmps_impact_params<3>()", collision,
-      collide_isolated ? " (isolated particles too)" : "",
-      shift_isolated ? ", isolated particles in the shifting penalty" : "", T_end);
+      static_cast<long long>(slab.size()), scheme_name, p.collision.alpha1,
+      p.collision.isolated ? " (isolated particles too)" : "",
+      p.shift_isolated_penalty ? ", isolated particles in the shifting penalty" : "", T_end);
   const cases::tanaka_slab_result r = cases::run_tanaka_slab(cfg, layers, T_end, p, sides, true, observe);
   progress.finish();
   int compared = 0, inside = 0;
@@ -230,8 +225,8 @@ int main(int argc, char** argv) {
     if (opt.slab_asked)  // the 3D slab: its own path (the probe, the trace and the pictures are 2D)
       return run_slab(cfg, static_cast<int>(opt.slab),
                       opt.slab_walls ? cases::slab_sides::walls : cases::slab_sides::periodic, opt.T_end,
-                      walls.name == "parent_gradient", opt.lsmps.collision, opt.lsmps.colliding_isolated(),
-                      opt.lsmps.shift_isolated, cases::read_front_data(opt.data), opt.out);
+                      opt.lsmps.slab_params(), opt.lsmps.slab_scheme_name(), cases::read_front_data(opt.data),
+                      opt.out);
     const cases::tanaka_dam_break db = cases::make_tanaka_dam_break(cfg);
     const vec<2> probe = opt.obstacle ? db.obstacle_probe() : db.probe();
     const std::vector<cases::front_series> ref = cases::read_front_data(opt.data);

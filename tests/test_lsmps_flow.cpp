@@ -14,6 +14,7 @@
 #include <string>
 #include <tuple>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "cases/dam_break.hpp"
@@ -462,7 +463,7 @@ TEST_SUITE("hydrostatic_polygon") {
     // y, across the pair, and changes nothing of u_x. Σ V u_x stays 0 either way.
     const cases::polygon_tank_config tc = tall_box_config();
     const auto tank = cases::make_polygon_tank<2>(tc);
-    const auto run = [&](bool isolated) {
+    const auto run = [&](bool isolated, bool before_ppe) {
       scheme::lsmps_state<2> s0(tank.size() + 2);
       s0.x().leftCols(tank.size()) = tank.x;
       s0.u().setZero();
@@ -477,6 +478,7 @@ TEST_SUITE("hydrostatic_polygon") {
       p.reorder_every = 0;  // the droplets stay the last two columns
       p.collision.alpha1 = 0.5;
       p.collision.isolated = isolated;
+      p.collide_before_ppe = before_ppe;
       simulation<lsmps_defaults<2>> sim(p, std::move(s0), &tank.walls);
       sim.step();
       const auto& st = sim.state();
@@ -484,11 +486,68 @@ TEST_SUITE("hydrostatic_polygon") {
         REQUIRE((st.flags()[static_cast<std::size_t>(i)] & flag::isolated) != 0);
       return std::array<double, 2>{st.u()(0, tank.size()), st.u()(0, tank.size() + 1)};
     };
-    const std::array<double, 2> ballistic = run(false), bounced = run(true);
+    const std::array<double, 2> ballistic = run(false, false), bounced = run(true, false);
     CHECK(ballistic[0] == 1.0);
     CHECK(ballistic[1] == -1.0);
     CHECK(bounced[0] == doctest::Approx(-0.2).epsilon(1e-12));
     CHECK(bounced[1] == doctest::Approx(0.2).epsilon(1e-12));
+    // With the stage before the PPE (collide_before_ppe) it acts on the predicted velocities (u + g Δt: the
+    // same u_x) and the isolated pair keeps what it gives through the correction: the same ∓0.2 m/s, once.
+    const std::array<double, 2> before = run(true, true);
+    CHECK(before[0] == doctest::Approx(-0.2).epsilon(1e-12));
+    CHECK(before[1] == doctest::Approx(0.2).epsilon(1e-12));
+    scheme::lsmps_params<2> off;
+    off.collide_before_ppe = true;  // without the stage there is nothing to move before the PPE
+    CHECK_THROWS_WITH_AS(off.validate(), doctest::Contains("collide_before_ppe"), mpskit::error);
+  }
+  TEST_CASE("collide_before_ppe: the PPE sees the collided velocities, after the correction it does not") {
+    // The tall box's water at rest with one interior pair pushed to 0.45 L apart and approaching at ±1 m/s
+    // (both in the fluid, so both PPE unknowns). The first step's PPE right-hand side (u′'s divergence)
+    // is the collision-free one bit for bit with the stage after the correction (it acts after the solve),
+    // and differs from it with the stage before the PPE (u′ is the collided one).
+    const cases::polygon_tank_config tc = tall_box_config();
+    const auto tank = cases::make_polygon_tank<2>(tc);
+    const vec<2> centre(0.5 * tc.W, 0.5 * tc.H);
+    index_t i = 0;
+    for (index_t k = 1; k < tank.size(); ++k)
+      if ((tank.x.col(k) - centre).norm() < (tank.x.col(i) - centre).norm()) i = k;
+    index_t j = -1;  // the right neighbour of i
+    for (index_t k = 0; k < tank.size(); ++k) {
+      const vec<2> d = tank.x.col(k) - tank.x.col(i);
+      if (std::abs(d[1]) < 0.1 * tc.L && std::abs(d[0] - tc.L) < 0.1 * tc.L) j = k;
+    }
+    REQUIRE(j >= 0);
+    const auto first_rhs = [&](double alpha1, bool before) {
+      scheme::lsmps_state<2> s0(tank.size());
+      s0.x() = tank.x;
+      s0.u().setZero();
+      s0.x().col(i) += vec<2>(0.55 * tc.L, 0.0);
+      s0.u().col(i) = vec<2>(1.0, 0.0);
+      s0.u().col(j) = vec<2>(-1.0, 0.0);
+      s0.get<field::volume>().setConstant(tc.L * tc.L);
+      scheme::lsmps_params<2> p;
+      p.time.mode = scheme::time_step_mode::fixed;
+      p.time.dt_fixed = 1e-4;
+      p.reorder_every = 0;
+      p.collision.alpha1 = alpha1;
+      p.collide_before_ppe = before;
+      simulation<lsmps_defaults<2>> sim(p, std::move(s0), &tank.walls);
+      sim.step();
+      REQUIRE((sim.state().flags()[static_cast<std::size_t>(i)] & (flag::isolated | flag::surface)) == 0);
+      // the pair, once each way (and with the stage before the PPE the floor row's u′ = g Δt toward its
+      // copies)
+      if (alpha1 > 0.0)
+        CHECK(sim.counters().collisions >= 2);
+      else
+        CHECK(sim.counters().collisions == 0);
+      return Eigen::VectorXd(sim.ppe_rhs());
+    };
+    const Eigen::VectorXd none = first_rhs(0.0, false), after = first_rhs(0.5, false),
+                          before = first_rhs(0.5, true);
+    REQUIRE(after.size() == none.size());
+    CHECK((after.array() == none.array()).all());
+    REQUIRE(before.size() == none.size());
+    CHECK((before - none).cwiseAbs().maxCoeff() > 1e-3 * none.cwiseAbs().maxCoeff());
   }
   TEST_CASE("the blow-up bound (time_step_params::max_speed) stops a run at the step that starts above it") {
     // The lone droplet of the case above falls at g with Δt = 1e-3 s: |u| = k Δt |g| at the start of step k,
@@ -642,6 +701,20 @@ TEST_SUITE("bad_input") {
     CHECK(cfg.vessel_height == doctest::Approx(0.3).epsilon(1e-15));
     CHECK(cfg.obstacle_width > 0.0);
     CHECK_NOTHROW(read({"--slab", "4", "--walls", "parent_gradient", "--slab-walls"}).validate());
+    // The 3D slab's parameters: the impact configuration by default, Table 2 with --walls parent_gradient,
+    // the collision and isolated-particle options applied to both.
+    check_impact_settings(read({"--slab", "4"}).lsmps.slab_params(), scheme::lsmps_impact_params<3>());
+    const auto table2 =
+        read({"--slab", "4", "--walls", "parent_gradient", "--collision", "0", "--no-shift-isolated"});
+    check_impact_settings(table2.lsmps.slab_params(), scheme::lsmps_params<3>{});
+    CHECK(std::string(table2.lsmps.slab_scheme_name()).find("Table 2") != std::string::npos);
+    const scheme::lsmps_params<3> slab =
+        read({"--slab", "4", "--collision", "0.3", "--no-collide-isolated", "--no-shift-isolated"})
+            .lsmps.slab_params();
+    CHECK(slab.collision.alpha1 == 0.3);
+    CHECK_FALSE(slab.collision.isolated);
+    CHECK_FALSE(slab.shift_isolated_penalty);
+    CHECK(slab.copy_two_point == scheme::lsmps_impact_params<3>().copy_two_point);
     CHECK_NOTHROW(read({"--no-collide-isolated", "--collision", "0"}).validate());
     const auto pieces =
         read({"--checkpoint", "ck.bin", "--every", "600", "--stop-after", "60", "--resume", "r.bin"});
@@ -1353,25 +1426,42 @@ tanaka_run run_tanaka_dam_break(double T_end, const std::string& walls, double L
 }  // namespace
 
 TEST_SUITE("dam_break_lsmps") {
-  TEST_CASE("lsmps_params::surface_copies_zero: the copies of surface particles are p = 0 rows") {
+  TEST_CASE("lsmps_params::surface_copies_zero(_below): the copies of surface particles are p = 0 rows") {
     // Tanaka's dam break at 10 mm to T = 0.3 (the column's first collapse): the column's free surface meets
-    // the left wall and the floor, so surface particles have copies from the first step. With the option
-    // (the paper's reading, Tanaka 2018 §4.6) every such copy is exactly 0 after each step; by default
-    // (deviation 3) they are unknowns of the parent-gradient row, and some are solved away from 0 — so the
-    // test tells the two apart.
+    // the left wall and the floor, so surface particles have copies from the first step. With
+    // surface_copies_zero (the paper's reading, Tanaka 2018 §4.6) every such copy is exactly 0 after each
+    // step; by default (deviation 3) they are unknowns of the parent-gradient row, and some are solved away
+    // from 0 — so the test tells the two apart. With surface_copies_zero_below = c_s only the copies of
+    // parents with packing ratio c < c_s are 0 rows: all of those are exactly 0, and some of the others not.
+    // c_s is the median of the parents' c over the default run, so that both sides have copies.
     cases::tanaka_dam_break_config c;
     c.L = 0.01;
-    const auto surface_copies = [&](bool zero) {
+    struct count {
+      long copies = 0, nonzero = 0;                   // copies of surface parents, and of those p != 0
+      long sparse = 0, sparse_nonzero = 0;            // the same for parents with c < c_s
+      std::vector<std::pair<double, bool>> parent_c;  // the parents' c and p != 0, copy by copy
+    };
+    const auto surface_copies = [&](bool zero, double below, double c_s) {
       scheme::lsmps_params<2> p;
       p.surface_copies_zero = zero;
-      long copies = 0, nonzero = 0, inner_nonzero = 0;
+      p.surface_copies_zero_below = below;
+      count n;
+      long inner_nonzero = 0;
       const auto observe = [&](const auto& sim) {
         const auto& st = sim.state();
         const auto& P = st.template get<field::pressure>();
+        const auto& parent = st.template get<field::parent>();
         for (index_t k = st.n_real(); k < st.size(); ++k)
           if ((st.flags()[static_cast<std::size_t>(k)] & flag::surface) != 0) {
-            ++copies;
-            nonzero += P[k] != 0.0;
+            ++n.copies;
+            n.nonzero += P[k] != 0.0;
+            // c of this step, in its order (no resize in this case)
+            const double cp = sim.packing_ratio()[parent[static_cast<std::size_t>(k)]];
+            n.parent_c.emplace_back(cp, P[k] != 0.0);
+            if (cp < c_s) {
+              ++n.sparse;
+              n.sparse_nonzero += P[k] != 0.0;
+            }
           } else {
             inner_nonzero += P[k] != 0.0;  // copies of inner parents: unknowns either way
           }
@@ -1380,21 +1470,43 @@ TEST_SUITE("dam_break_lsmps") {
       CHECK_FALSE(r.failed);
       CHECK(r.steps > 0);
       CHECK(inner_nonzero > 0);
-      return std::pair(copies, nonzero);
+      return n;
     };
-    const auto [copies_zero, nonzero_zero] = surface_copies(true);
-    CHECK(copies_zero > 0);
-    CHECK(nonzero_zero == 0);
-    const auto [copies_default, nonzero_default] = surface_copies(false);
-    CHECK(copies_default > 0);
-    CHECK(nonzero_default > 0);
-    MESSAGE("surface copies over the run: ", copies_zero, " (option), ", copies_default, " (default, ",
-            nonzero_default, " of them p != 0)");
+    const count all_zero = surface_copies(true, 0.0, 0.0);
+    CHECK(all_zero.copies > 0);
+    CHECK(all_zero.nonzero == 0);
+    const count by_default = surface_copies(false, 0.0, 0.0);
+    CHECK(by_default.copies > 0);
+    CHECK(by_default.nonzero > 0);
+    REQUIRE(by_default.parent_c.size() >= 2);
+    std::vector<double> sorted;
+    for (const auto& [cp, nz] : by_default.parent_c) sorted.push_back(cp);
+    std::sort(sorted.begin(), sorted.end());
+    const std::size_t mid = sorted.size() / 2;
+    const double c_s = 0.5 * (sorted[mid - 1] + sorted[mid]);
+    REQUIRE(sorted.front() < c_s);  // the parents' c are not all equal
+    const count sparse_zero = surface_copies(false, c_s, c_s);
+    CHECK(sparse_zero.sparse > 0);
+    CHECK(sparse_zero.sparse_nonzero == 0);
+    CHECK(sparse_zero.nonzero > 0);  // the copies of denser surface parents are still solved
+    // By default copies of parents with c < c_s are solved away from 0: the zeros above are the option's.
+    CHECK(std::count_if(by_default.parent_c.begin(), by_default.parent_c.end(),
+                        [&](const auto& e) { return e.first < c_s && e.second; }) > 0);
+    MESSAGE("surface copies over the run: ", all_zero.copies, " (surface_copies_zero), ", by_default.copies,
+            " (default, ", by_default.nonzero, " of them p != 0; parents' c from ", sorted.front(), " to ",
+            sorted.back(), ", median ", c_s, "), ", sparse_zero.copies, " (below ", c_s, ": ",
+            sparse_zero.sparse, " with c below it, all 0; ", sparse_zero.nonzero, " p != 0)");
     // Only with the parent-gradient rows: with the others the copies of surface particles are not unknowns.
     scheme::lsmps_params<2> p;
     p.surface_copies_zero = true;
     p.copy_row = scheme::copy_row_kind::neumann_points;
     CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("surface_copies_zero"), mpskit::error);
+    p.surface_copies_zero = false;
+    p.surface_copies_zero_below = 0.5;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("surface_copies_zero_below"), mpskit::error);
+    p.copy_row = scheme::copy_row_kind::parent_gradient;
+    p.surface_copies_zero_below = -0.1;
+    CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("surface_copies_zero_below"), mpskit::error);
   }
   TEST_CASE("Tanaka's vessel with closed_top: the lid closes the chain, its normal into the vessel") {
     // Open by default: three elements, and a point above the vessel is not behind any wall. closed_top adds

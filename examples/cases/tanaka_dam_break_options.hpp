@@ -64,6 +64,25 @@ struct impact_scheme_options {
   scheme::lsmps_params<2> params(const char* who) const {
     scheme::lsmps_params<2> p;
     walls(who).apply(p);
+    return switches(p);
+  }
+
+  /// The 3D slab's parameters (tanaka_dam_break --slab): Tanaka's Table 2 (lsmps_params<3>{}) with --walls
+  /// parent_gradient, otherwise scheme::lsmps_impact_params<3>() (the wall variants are 2D; the slab takes
+  /// these two only, tanaka_dam_break_options::validate), then the collision and isolated-particle options
+  /// as in 2D.
+  scheme::lsmps_params<3> slab_params() const {
+    return switches(slab_table2() ? scheme::lsmps_params<3>{} : scheme::lsmps_impact_params<3>());
+  }
+  /// What slab_params() starts from, for the run's header line.
+  const char* slab_scheme_name() const {
+    return slab_table2() ? "Tanaka's Table 2 (lsmps_params<3>{})" : "scheme::lsmps_impact_params<3>()";
+  }
+
+ private:
+  bool slab_table2() const { return walls_name == "parent_gradient"; }
+  template <int D>
+  scheme::lsmps_params<D> switches(scheme::lsmps_params<D> p) const {
     p.collision.alpha1 = collision;
     p.collision.isolated = colliding_isolated();
     p.shift_isolated_penalty = shift_isolated;

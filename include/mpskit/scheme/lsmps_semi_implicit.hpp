@@ -290,6 +290,13 @@ struct lsmps_params {
   /// Needs copy_row = parent_gradient (with the other rows the copies of surface particles are p = 0 already,
   /// or not unknowns at all).
   bool surface_copies_zero = false;
+  /// Copies of sparse free-surface particles are Dirichlet p = 0 rows: those whose parent's packing ratio c
+  /// (eq. 40) is below this value (ours, opt-in; 0: off). A narrower surface_copies_zero, aimed at the copies
+  /// of sparse surface particles solved at 114–155 ρ g H in the far-wall impact of Tanaka's dam break (their
+  /// parents at c = 0.37 and 0.45; a particle of a flat surface has c ≈ 0.5, one inside ≈ 1; measured with
+  /// 0.4: no remedy, docs/lsmps_scheme.md "Sparse surface copies and a collision before the PPE"). Needs
+  /// copy_row = parent_gradient. Accepted: [0, inf).
+  double surface_copies_zero_below = 0.0;
   /// fluid rows with a diagonal ≥ 0 (see the enum)
   wrong_sign_row wrong_sign_rows = wrong_sign_row::dirichlet;
   /// the det F rows' operator (see the enum)
@@ -338,6 +345,11 @@ struct lsmps_params {
   /// copies (at the wall velocity, immovable), momentum-conserving for unequal volumes
   /// (regularize::sized_collisions). alpha1 = 0: off, Tanaka's scheme. Counted (lsmps_counters::collisions).
   regularize::sized_collision_params collision{};
+  /// The collision stage on the predicted velocities, before the PPE, instead of after the correction (ours,
+  /// opt-in; docs/lsmps_scheme.md "Sparse surface copies and a collision before the PPE"): approaching pairs
+  /// and particles approaching their wall copies are slowed before the pressure is solved, so the PPE need
+  /// not stop them. Needs collision.alpha1 > 0.
+  bool collide_before_ppe = false;
   time_step_params time{};              ///< Δt controller (Tanaka: α_C = 0.1, constant Δt in the source)
   ppe::solver_params solver{};          ///< linear solver stopping rule
   search::domain<D> domain{};           ///< periodic axes
@@ -389,6 +401,14 @@ struct lsmps_params {
     v.require(!(surface_copies_zero && copy_row != copy_row_kind::parent_gradient), "surface_copies_zero",
               "needs copy_row = parent_gradient (with the other rows the copies of surface particles are not "
               "unknowns)");
+    v.require(surface_copies_zero_below >= 0.0 && std::isfinite(surface_copies_zero_below),
+              "surface_copies_zero_below", "must be finite and >= 0 (0: off)");
+    v.require(!(surface_copies_zero_below > 0.0 && copy_row != copy_row_kind::parent_gradient),
+              "surface_copies_zero_below",
+              "needs copy_row = parent_gradient (with the other rows the copies of surface particles are not "
+              "unknowns)");
+    v.require(!(collide_before_ppe && collision.alpha1 <= 0.0), "collide_before_ppe",
+              "needs the collision stage on (collision.alpha1 > 0)");
     v.require(
         !(copy_two_point > 0.0 && copy_row == copy_row_kind::neumann_points), "copy_two_point",
         "a two-point copy row needs copy_row = parent_gradient (with neumann_points the copies have no row)");
@@ -843,6 +863,9 @@ class lsmps_semi_implicit {
       }
       ut_.col(i) = u.col(i) + dt * acc;
     });
+    // 7b. Pair collisions on the predicted velocities (ours, opt-in: collide_before_ppe). The copies' columns
+    //     of ut_ still hold the wall velocity here (ut_ = u above); their averaged u′ is set below.
+    if (p_.collision.alpha1 > 0.0 && p_.collide_before_ppe) collide(n, ut_);
     // Copies: u′_w = w-weighted average of the participating fluid neighbours' u′ (§4.5.1).
     for_each_particle(exec::par{}, nc_ - n, [&](index_t k0) {
       const index_t k = n + k0;
@@ -893,7 +916,7 @@ class lsmps_semi_implicit {
       c_.filter_tapered += static_cast<long>(fr.tapered);
     }
     // 9c. Pair collisions (ours, opt-in: lsmps_params::collision).
-    if (p_.collision.alpha1 > 0.0) collide(n);
+    if (p_.collision.alpha1 > 0.0 && !p_.collide_before_ppe) collide(n, s_.u());
     // 10. Shifting (δx from this step's lists at x^k; δu = ∇u δx, eq. 91).
     if constexpr (has_shift) shift_particles();
     for_each_particle(exec::par{}, n, [&](index_t i) { s_.x().col(i) += dt * s_.u().col(i) + dx_shift(i); });
@@ -1196,10 +1219,12 @@ class lsmps_semi_implicit {
   }
 
   /// 9c. Seed 001 eq. 13 between the participating fluid particles and against their copies (wall velocity,
-  /// immovable) on this step's list at x^k (the velocities are the corrected, filtered ones; the copies' u is
-  /// the wall's); the isolated ones too with collision.isolated. Pressure-boundary particles take no part.
-  /// Jacobi: every Δu from the same u.
-  void collide(index_t n) {
+  /// immovable) on this step's list at x^k (the velocities are the corrected, filtered ones, or with
+  /// collide_before_ppe the predicted ones, 7b; the copies' u is the wall's); the isolated ones too with
+  /// collision.isolated. Pressure-boundary particles take no part.
+  /// Jacobi: every Δu from the same u. u: s_.u() after the correction, ut_ before the PPE
+  /// (collide_before_ppe; its copies' columns then hold the wall velocity).
+  void collide(index_t n, points<D>& u) {
     // excluded_ marks the isolated particles and their copies: in the stage only with collision.isolated.
     const bool all = p_.collision.isolated;
     const auto movable = [this, n, all](index_t i) {
@@ -1209,9 +1234,9 @@ class lsmps_semi_implicit {
       return j < nc_ && (all || !excluded_[static_cast<std::size_t>(j)]);
     };
     const regularize::collision_report rep =
-        regularize::sized_collisions(exec::par{}, s_.x(), s_.u(), L_, s_.template get<field::volume>(), nl_,
+        regularize::sized_collisions(exec::par{}, s_.x(), u, L_, s_.template get<field::volume>(), nl_,
                                      partner, movable, p_.collision, collision_du_);
-    s_.u().leftCols(n) += collision_du_.leftCols(n);
+    u.leftCols(n) += collision_du_.leftCols(n);
     c_.collisions += static_cast<long>(rep.pairs);
     c_.collision_coincident += static_cast<long>(rep.coincident);
   }
@@ -1700,10 +1725,12 @@ class lsmps_semi_implicit {
         // surface particles (their row makes the parent's normal velocity vanish; p = 0 there put a wrong
         // Dirichlet value on a copy below its parent on an inclined wall: 1.6 % of ρ g H at the first step),
         // except the copies the own-loop guard made p = 0 rows and those in the active set
-        // (active_set_copies); with surface_copies_zero none (p = 0, the paper's reading).
+        // (active_set_copies); with surface_copies_zero none (p = 0, the paper's reading), with
+        // surface_copies_zero_below not those of parents with c below it.
         if (i >= nc_) continue;  // pressure-boundary particles: Dirichlet p = P_b (Tanaka §4.5.2)
         const bool copy_unknown =
             i >= n && p_.copy_row == copy_row_kind::parent_gradient && !p_.surface_copies_zero &&
+            !(c_pack_[parent(i)] < p_.surface_copies_zero_below) &&
             !(p_.own_loop.enabled && own_loop_zero_copies_[static_cast<std::size_t>(parent(i))]) &&
             !active_set_[static_cast<std::size_t>(i)];  // active_set_copies
         if (i >= n && neumann_points()) continue;  // copies are data, not unknowns
