@@ -14,7 +14,8 @@
 //            must be < --t-end; with a --t-end not longer than the default window the window becomes 0.2
 //            t_end, and the example says so). Options given with --full override its values, in any order.
 //   A value that is not wholly a number, or is <= 0 (< 0 for --filter and --two-point, where 0 switches off),
-//   is refused with the option named.
+//   an unknown option and a missing value are refused with the option named and the usage line, exit status 2
+//   (cases/gears_options.hpp, tested under label bad_input).
 // Knobs for experiments (docs/gears.md): --lmin L --lmax L --rfine R --tip-round R --root-round R,
 // --two-point B (copy row β), --filter E (one-sided-band filter ε), --courant C, --alpha-w A, --alpha-o A,
 // --cprime D (eq. 62's c′ = 1 ± D), --shift-as-printed (eq. 99 on the fluid pairs too), --no-merge; solvers:
@@ -22,15 +23,12 @@
 // did not converge at step 0).
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <string>
 
-#include "cases/cli.hpp"
-#include "cases/gears.hpp"
+#include "cases/gears_options.hpp"
 #include "mpskit/io/progress.hpp"
 #include "mpskit/io/vtk.hpp"
 
@@ -50,96 +48,26 @@ void write_walls_vtk(const fs::path& file, const geometry::polygon_mesh<2>& m) {
 }
 
 int run(int argc, char** argv) {
-  cases::gears_config c;
-  std::string out = "out/gears";
-  double vtk_every = 2e-3;
-  bool geometry_only = false, jacobi = false, ilut = false, window_given = false;
-  std::string why;  // what was wrong with an option's value, printed before the usage
-  const auto number = [&](int& a, double& v, bool zero_ok = false) {
-    if (a + 1 >= argc) {
-      why = std::string(argv[a]) + ": needs a value";
-      return false;
-    }
-    try {
-      v = cases::parse_number(argv[a], argv[a + 1]);  // the whole text, finite (cases/cli.hpp)
-    } catch (const mpskit::error& e) {
-      why = e.what();
-      return false;
-    }
-    if (v < 0.0 || (v == 0.0 && !zero_ok)) {  // zero switches off only the options that say so
-      why = std::string(argv[a]) + " '" + argv[a + 1] + "': must be " + (zero_ok ? ">= 0" : "> 0");
-      return false;
-    }
-    ++a;
-    return true;
-  };
-  // --full first, wherever it stands, so that the options given with it override its values. --out's value is
-  // skipped (a directory may be called "--full"); a number option's value is not a number if it reads
-  // "--full", and the second pass refuses it.
-  for (int a = 1; a < argc; ++a)
-    if (!std::strcmp(argv[a], "--out")) ++a;
-    else if (!std::strcmp(argv[a], "--full")) {
-      c.L_min = 0.1e-3;
-      c.r_fine = 4e-3;
-      c.t_end = 0.4;
-      c.window = 0.1;
-      vtk_every = 0.02;
-    }
-  for (int a = 1; a < argc; ++a) {
-    bool ok = true;
-    if (!std::strcmp(argv[a], "--full")) {
-      // applied above
-    } else if (!std::strcmp(argv[a], "--out") && a + 1 < argc) out = argv[++a];
-    else if (!std::strcmp(argv[a], "--t-end")) ok = number(a, c.t_end);
-    else if (!std::strcmp(argv[a], "--lmin")) ok = number(a, c.L_min);
-    else if (!std::strcmp(argv[a], "--lmax")) ok = number(a, c.L_max);
-    else if (!std::strcmp(argv[a], "--rfine")) ok = number(a, c.r_fine);
-    else if (!std::strcmp(argv[a], "--wall-limit")) ok = number(a, c.wall_limit);
-    else if (!std::strcmp(argv[a], "--tip-round")) ok = number(a, c.geometry.tip_round);
-    else if (!std::strcmp(argv[a], "--root-round")) ok = number(a, c.geometry.root_round);
-    else if (!std::strcmp(argv[a], "--filter")) ok = number(a, c.params.boundary_filter.strength, true);
-    else if (!std::strcmp(argv[a], "--shift-as-printed"))
-      c.params.shift.projection = regularize::penalty_projection::with_displacement;
-    else if (!std::strcmp(argv[a], "--two-point")) ok = number(a, c.params.copy_two_point, true);
-    else if (!std::strcmp(argv[a], "--wall-contact")) ok = number(a, c.params.resolution.wall_contact);
-    else if (!std::strcmp(argv[a], "--courant")) ok = number(a, c.params.time.courant);
-    else if (!std::strcmp(argv[a], "--alpha-w")) ok = number(a, c.params.walls.alpha_w);
-    else if (!std::strcmp(argv[a], "--alpha-o")) ok = number(a, c.boundary.alpha_o);
-    else if (!std::strcmp(argv[a], "--window")) ok = window_given = number(a, c.window);
-    else if (!std::strcmp(argv[a], "--vtk-every")) ok = number(a, vtk_every);
-    else if (!std::strcmp(argv[a], "--geometry-only")) geometry_only = true;
-    else if (!std::strcmp(argv[a], "--no-merge")) c.params.resolution.merge = false;
-    else if (!std::strcmp(argv[a], "--jacobi")) jacobi = true;
-    else if (!std::strcmp(argv[a], "--ilut")) ilut = true;
-    else if (!std::strcmp(argv[a], "--ilut-drop")) ok = number(a, c.params.solver.ilut_drop_tolerance);
-    else if (!std::strcmp(argv[a],
-                          "--cprime")) {  // the largest volume correction per step (eq. 62's c′ bounds)
-      double d = 0.0;
-      ok = number(a, d);
-      c.params.volume.c_prime_min = 1.0 - d;
-      c.params.volume.c_prime_max = 1.0 + d;
-    } else
-      ok = false;
-    if (!ok) {
-      if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
-      std::fprintf(stderr,
-                   "usage: %s [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] "
-                   "[--geometry-only] (more knobs: see the file's header)\n",
-                   argv[0]);
-      return 2;
-    }
+  cases::gears_options opt;
+  try {  // reading (cases/gears_options.hpp): an unknown option, a missing or bad value
+    opt = cases::read_gears_options(argc, argv);
+    opt.validate();
+  } catch (const mpskit::error& e) {
+    std::fprintf(
+        stderr,
+        "%s\nusage: %s [--full] [--out DIR] [--t-end T] [--window S] [--vtk-every S] [--wall-limit S] "
+        "[--geometry-only] (more knobs: see the file's header)\n",
+        e.what(), argv[0]);
+    return 2;
   }
-  if (!(c.t_end > c.window)) {
-    // The averaging window must end inside the run: a given one is refused, the default follows a short
-    // --t-end.
-    if (window_given) {
-      std::fprintf(stderr, "gears: --window %g must be shorter than --t-end %g\n", c.window, c.t_end);
-      return 2;
-    }
-    c.window = 0.2 * c.t_end;
+  if (opt.fit_default_window())
     std::printf("gears: --t-end %g is not longer than the default window: averaging over the last %g s\n",
-                c.t_end, c.window);
-  }
+                opt.c.t_end, opt.c.window);
+  const cases::gears_config& c = opt.c;
+  const std::string& out = opt.out;
+  const double vtk_every = opt.vtk_every;
+  const bool geometry_only = opt.geometry_only, jacobi = opt.jacobi;
+  [[maybe_unused]] const bool ilut = opt.ilut;  // used with SuiteSparse only
   fs::create_directories(out);
   const cases::gears_geometry g = cases::make_gears_geometry(c.geometry);
   const fs::path poly = fs::path(out) / "gears.polyline";

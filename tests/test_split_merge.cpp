@@ -20,6 +20,7 @@
 #endif
 
 #include "archetypes/resolution.hpp"
+#include "cases/gears_options.hpp"
 #include "cases/multires_dam_break_options.hpp"
 #include "cases/polygon_tank.hpp"
 #include "cases/run_measures.hpp"
@@ -2326,5 +2327,70 @@ TEST_SUITE("bad_input") {
     // --release with wall options that have no active set (the scheme's own refusal, before any output).
     refused({"--walls", "parent_gradient", "--release"}, "active_set_release");
     refused({"--warm", "--no-single"}, "active_set_warm_start");
+  }
+
+  // examples/gears.cpp's command line (cases/gears_options.hpp): --full applied first, the knobs' readings
+  // and every kind of refusal.
+  TEST_CASE("gears' command line: defaults, --full in any position, readings and refusals") {
+    const auto read = [](std::vector<const char*> args) {
+      args.insert(args.begin(), "gears");
+      return cases::read_gears_options(static_cast<int>(args.size()), args.data());
+    };
+    const cases::gears_config defaults;
+    const cases::gears_options d = read({});
+    CHECK(d.c.L_min == defaults.L_min);
+    CHECK(d.c.t_end == defaults.t_end);
+    CHECK(d.c.window == defaults.window);
+    CHECK(d.out == "out/gears");
+    CHECK_FALSE(d.geometry_only);
+    CHECK_NOTHROW(d.validate());
+    // --full is the paper's 0.4 s from L* = 0.1 mm; an option given with it overrides it on either side.
+    const cases::gears_options f = read({"--t-end", "0.2", "--full"});
+    CHECK(f.c.L_min == 0.1e-3);
+    CHECK(f.c.r_fine == 4e-3);
+    CHECK(f.c.window == 0.1);
+    CHECK(f.vtk_every == 0.02);
+    CHECK(f.c.t_end == 0.2);
+    CHECK(read({"--full", "--t-end", "0.3"}).c.t_end == 0.3);
+    CHECK(read({"--out", "--full"}).c.L_min == defaults.L_min);  // a directory called "--full"
+    CHECK(read({"--out", "--full"}).out == "--full");
+    // The knobs reach the case and the scheme; 0 switches --filter and --two-point off.
+    const cases::gears_options k =
+        read({"--filter", "0", "--two-point", "0", "--cprime", "0.01", "--alpha-o", "0.4", "--no-merge",
+              "--shift-as-printed", "--ilut", "--geometry-only", "--lmax", "1.6e-3", "--wall-limit", "60"});
+    CHECK(k.c.params.boundary_filter.strength == 0.0);
+    CHECK(k.c.params.copy_two_point == 0.0);
+    CHECK(k.c.params.volume.c_prime_min == doctest::Approx(0.99).epsilon(1e-15));
+    CHECK(k.c.params.volume.c_prime_max == doctest::Approx(1.01).epsilon(1e-15));
+    CHECK(k.c.boundary.alpha_o == 0.4);
+    CHECK_FALSE(k.c.params.resolution.merge);
+    CHECK(k.c.params.shift.projection == regularize::penalty_projection::with_displacement);
+    CHECK(k.ilut);
+    CHECK(k.geometry_only);
+    CHECK(k.c.L_max == 1.6e-3);
+    CHECK(k.c.wall_limit == 60.0);
+    CHECK_NOTHROW(k.validate());
+    // Reading refusals: not wholly a number, <= 0 (< 0 where 0 is off), a missing value, an unknown option.
+    CHECK_THROWS_WITH_AS(read({"--t-end", "--full"}), doctest::Contains("gears: --t-end '--full'"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--lmin", "0"}), doctest::Contains("--lmin '0': must be > 0"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--filter", "-0.1"}), doctest::Contains("--filter '-0.1': must be >= 0"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--courant"}), doctest::Contains("--courant needs a value"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--t_end", "1"}), doctest::Contains("unknown option '--t_end'"),
+                         mpskit::error);
+    // Validation, before any output: a given window not inside the run; knobs out of the scheme's range.
+    CHECK_THROWS_WITH_AS(read({"--t-end", "0.01", "--window", "0.02"}).validate(),
+                         doctest::Contains("--window 0.02 must be shorter than --t-end 0.01"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--cprime", "1"}).validate(), doctest::Contains("c_prime_min"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--alpha-o", "2"}).validate(), doctest::Contains("alpha_o"), mpskit::error);
+    // A short --t-end without --window: the default window follows it (0.2 t_end).
+    cases::gears_options s = read({"--t-end", "0.005"});
+    CHECK_NOTHROW(s.validate());
+    CHECK(s.fit_default_window());
+    CHECK(s.c.window == doctest::Approx(1e-3).epsilon(1e-15));
+    cases::gears_options dd = d;
+    CHECK_FALSE(dd.fit_default_window());  // the default run keeps its window
+    CHECK(dd.c.window == defaults.window);
   }
 }

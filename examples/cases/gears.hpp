@@ -531,6 +531,19 @@ struct gears_config {
     const double L = L_min * std::exp2(0.5 * k) * (k % 2 == 1 ? 0.99 : 1.0);
     return std::min(L_max, L);
   }
+  /// The scheme's parameters as run_gears runs them: `params` with ρ, ν = μ/ρ, no gravity, Δt_max and the
+  /// target diameter L*(x) of this configuration.
+  scheme::lsmps_params<2> scheme_params() const {
+    scheme::lsmps_params<2> p = params;
+    p.rho = rho;
+    p.nu = mu / rho;
+    p.g.setZero();
+    // adaptive, Courant α_C = 0.1 (Tanaka Table 2); dt_max = α_C L_min / √(2 Δp / ρ) (ours): at rest the
+    // Courant limit says nothing, and the first step at 1 ms gave 1.1 m/s and a PPE divergence at step 2
+    p.time.dt_max = p.time.courant * L_min / std::sqrt(2.0 * std::abs(p_right - p_left) / rho);
+    p.resolution.target_diameter = [c = *this](const vec<2>& x) { return c.target(x); };
+    return p;
+  }
 };
 
 struct gears_result {
@@ -681,15 +694,7 @@ gears_result run_gears(gears_config c, const geometry::polygon_mesh<2>& domain, 
     if (std::abs(wm.vertices(0, v)) <= a) y_bottom = std::min(y_bottom, wm.vertices(1, v));
   const geometry::polygon_mesh<2> wm_copy = wm;
   const geometry::polygon_set<2> walls(std::move(wm));
-  auto p = c.params;
-  p.rho = c.rho;
-  p.nu = c.mu / c.rho;
-  p.g.setZero();
-  // adaptive, Courant α_C = 0.1 (Tanaka Table 2); dt_max = α_C L_min / √(2 Δp / ρ) (ours): at rest the
-  // Courant limit says nothing, and the first step at 1 ms gave 1.1 m/s and a PPE divergence at step 2
-  p.time.dt_max = p.time.courant * c.L_min / std::sqrt(2.0 * std::abs(c.p_right - c.p_left) / c.rho);
-  const gears_config cc = c;
-  p.resolution.target_diameter = [cc](const vec<2>& x) { return cc.target(x); };
+  const scheme::lsmps_params<2> p = c.scheme_params();
   const auto spacing = [&](const vec<2>& y) { return std::min(c.L_max, c.target(y)); };
   const boundary::pressure_boundary<2> pb(geometry::polygon_set<2>(std::move(fm)), {c.p_right, c.p_left},
                                           spacing, c.boundary);
