@@ -40,17 +40,15 @@
 //   default: 10 mm wide, 20 mm long (Δp = 20 Pa), L = 0.5 mm, to 0.5 s (the CI case);
 //   --full:  the paper's 100 mm channel, Δp = 100 Pa (G = 1000 Pa/m), to 0.5 s, ILUT-BiCGSTAB (Tanaka's
 //            single resolution is L = 0.125 mm: pass it as L; expect hours on one core).
+// Every number must be wholly a finite number > 0 (--refine and --ratio >= 1); a number beyond the mode's
+// positional ones, an option of another mode, a missing value and an unknown option are refused with the
+// mode's usage line, exit status 2, before any output (cases/channel_options.hpp, tested under label
+// bad_input).
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <exception>
 
-#include "cases/cli.hpp"
-#include "cases/duct.hpp"
-#include "cases/multi_diameter_channel.hpp"
-#include "cases/pipe.hpp"
-#include "cases/poiseuille.hpp"
+#include "cases/channel_options.hpp"
 
 namespace {
 // The paper's 100 mm channel (--full) with ILUT-preconditioned BiCGSTAB: the default Jacobi-BiCGSTAB broke
@@ -64,53 +62,13 @@ struct long_channel_multires_scene : long_channel_scene {
   using resolution = mpskit::resolution::split_merge<>;
 };
 
-// Reads a positive number from s into v; on failure prints "channel <mode>: <what> must be ..." and returns
-// false.
-bool positive_number(const char* mode, const char* what, const char* s, double& v) {
-  try {
-    v = mpskit::cases::parse_number(what, s);  // the whole text, finite
-  } catch (const mpskit::error&) {
-    v = 0.0;
-  }
-  if (!(v > 0.0)) {
-    std::fprintf(stderr, "channel %s: %s must be a positive number (got '%s')\n", mode, what, s);
-    return false;
-  }
-  return true;
-}
-
 // Tanaka A2 (§5.2): the channel refined at its walls, L_f = 0.5 mm / R there and 0.5 mm in the centre (R = 4:
 // the paper's 0.125 -> 0.5 mm), from a graded start, against single resolution at L_f with the same Δt = 0.1
 // L_f²/ν. Periodic (5 mm period, body force G/ρ) by default; --pressure: the paper's 100 mm between pressure
 // faces.
-int run_a2(int argc, char** argv) {
-  double t_end = 0.1, ratio = 4.0;
-  bool pressure = false, single = true;
-  int positional = 0;
-  const auto number = [](const char* what, const char* s, double& v) {
-    return positive_number("--a2", what, s, v);
-  };
-  for (int a = 2; a < argc; ++a) {
-    if (!std::strcmp(argv[a], "--pressure")) {
-      pressure = true;
-    } else if (!std::strcmp(argv[a], "--no-single")) {
-      single = false;
-    } else if (!std::strcmp(argv[a], "--ratio")) {
-      if (a + 1 >= argc || !number("--ratio", argv[++a], ratio)) return 2;
-      if (ratio < 1.0) {
-        std::fprintf(stderr, "channel --a2: --ratio takes a diameter ratio >= 1 (got %g)\n", ratio);
-        return 2;
-      }
-    } else if (positional == 0) {
-      if (!number("t_end", argv[a], t_end)) return 2;
-      ++positional;
-    } else {
-      std::fprintf(stderr,
-                   "usage: channel --a2 [t_end] [--ratio R] [--pressure] [--no-single] (unexpected '%s')\n",
-                   argv[a]);
-      return 2;
-    }
-  }
+int run_a2(const mpskit::cases::channel_options& opt) {
+  const double t_end = opt.a2_t_end, ratio = opt.a2_ratio;
+  const bool pressure = opt.a2_pressure, single = opt.a2_single;
   // H = 10 mm, G = 1000 Pa/m, mu = 0.1 Pa s, L = 0.5 mm (the coarse size)
   mpskit::cases::poiseuille_config c;
   const double Lc = c.L, Lf = Lc / ratio, nu = c.mu / c.rho;
@@ -172,14 +130,18 @@ int run_a2(int argc, char** argv) {
 }
 
 int run(int argc, char** argv) {
-  mpskit::cases::poiseuille_config c;
-  c.length = 0.02;
-  bool periodic_only = false, full = false;
-  int positional = 0;
-  if (argc > 1 && !std::strcmp(argv[1], "--pipe")) {
-    mpskit::cases::pipe_config pc;
-    pc.probe_times = {0.05};
-    if (argc > 2) pc.t_end = mpskit::cases::parse_number("channel --pipe: t_end", argv[2], 1e-12);
+  mpskit::cases::channel_options opt;
+  try {  // reading (cases/channel_options.hpp): an unknown option, a missing, bad or unexpected value
+    opt = mpskit::cases::read_channel_options(argc, argv);
+    opt.validate();
+  } catch (const mpskit::error& e) {
+    std::fprintf(stderr, "%s\nusage: %s\n", e.what(),
+                 mpskit::cases::channel_usage(mpskit::cases::read_channel_mode(argc, argv)));
+    return 2;
+  }
+  using mode = mpskit::cases::channel_mode;
+  if (opt.mode == mode::pipe) {
+    const mpskit::cases::pipe_config pc = opt.pipe;
     const auto r = mpskit::cases::run_pipe(pc);
     std::printf("pipe R = %.1f mm, %d particles per radius (%lld particles, %ld steps, %.1f s wall):\n",
                 pc.R * 1e3, pc.per_radius, static_cast<long long>(r.particles), r.steps, r.wall_seconds);
@@ -188,11 +150,9 @@ int run(int argc, char** argv) {
                   pr.rms_error);
     return 0;
   }
-  if (argc > 1 && !std::strcmp(argv[1], "--duct")) {
+  if (opt.mode == mode::duct) {
     for (bool pressure : {true, false}) {
-      mpskit::cases::duct_config dc;
-      if (argc > 2) dc.t_end = mpskit::cases::parse_number("channel --duct: t_end", argv[2], 1e-12);
-      if (argc > 3) dc.L = mpskit::cases::parse_number("channel --duct: L", argv[3], 1e-12);
+      const mpskit::cases::duct_config dc = opt.duct;
       const auto r = mpskit::cases::run_duct(dc, pressure);
       std::printf(
           "3D duct %s, L = %.3f mm, t = %.3f s (%lld -> %lld particles, %ld steps, %.1f s wall): max cell |u "
@@ -203,9 +163,8 @@ int run(int argc, char** argv) {
     }
     return 0;
   }
-  if (argc > 1 && !std::strcmp(argv[1], "--duct-multires")) {
-    mpskit::cases::duct_config dc;
-    if (argc > 2) dc.t_end = mpskit::cases::parse_number("channel --duct-multires: t_end", argv[2], 1e-12);
+  if (opt.mode == mode::duct_multires) {
+    mpskit::cases::duct_config dc = opt.duct;
     mpskit::cases::refine_duct_walls(dc);
     const auto r = mpskit::cases::run_duct_impl<mpskit::cases::duct_pressure_multires_scene>(dc);
     std::printf(
@@ -218,89 +177,10 @@ int run(int argc, char** argv) {
         r.outflow, r.ledger_error, r.guarded);
     return 0;
   }
-  if (argc > 1 && !std::strcmp(argv[1], "--a2")) return run_a2(argc, argv);
-  if (argc > 1 && !std::strcmp(argv[1], "--multi")) {
-    mpskit::cases::multi_diameter_config mc;
-    double ratio = 0.0;  // --refine R: split 1:R entering the narrow section (issue #9's case)
-    int positional = 0;
-    const auto number = [](const char* what, const char* s, double& v) {
-      return positive_number("--multi", what, s, v);
-    };
-    for (int a = 2; a < argc; ++a) {
-      if (!std::strcmp(argv[a],
-                       "--neumann-points")) {  // the wall copies as Neumann points (opt-in wall rows)
-        mc.params.copy_row = mpskit::scheme::copy_row_kind::neumann_points;
-      } else if (!std::strcmp(argv[a], "--thin-walls")) {  // the visibility test on (the library's default)
-        mc.params.thin_walls = true;
-      } else if (!std::strcmp(argv[a], "--progress")) {
-        if (a + 1 >= argc) {
-          std::fprintf(stderr, "channel --multi: --progress needs an interval in wall seconds\n");
-          return 2;
-        }
-        if (!number("--progress", argv[++a], mc.progress_interval)) return 2;
-      } else if (!std::strcmp(argv[a], "--dt-ratio")) {  // the Δt ladder's ratio r (time_step_params::ratio)
-        if (a + 1 >= argc) {
-          std::fprintf(stderr, "channel --multi: --dt-ratio needs a ratio r in [1.001, 2]\n");
-          return 2;
-        }
-        if (!number("--dt-ratio", argv[++a], mc.params.time.ratio)) return 2;
-      } else if (!std::strcmp(argv[a], "--checkpoint") ||
-                 !std::strcmp(argv[a], "--resume")) {  // long runs in pieces
-        if (a + 1 >= argc) {
-          std::fprintf(stderr, "channel --multi: %s needs a file name\n", argv[a]);
-          return 2;
-        }
-        (argv[a][2] == 'c' ? mc.pieces.checkpoint : mc.pieces.resume) = argv[a + 1];
-        ++a;
-      } else if (!std::strcmp(argv[a], "--every") || !std::strcmp(argv[a], "--stop-after")) {
-        if (a + 1 >= argc) {
-          std::fprintf(stderr, "channel --multi: %s needs a time in wall seconds\n", argv[a]);
-          return 2;
-        }
-        const bool every = argv[a][2] == 'e';
-        if (!number(argv[a], argv[a + 1], every ? mc.pieces.checkpoint_interval : mc.pieces.stop_after))
-          return 2;
-        ++a;
-      } else if (!std::strcmp(argv[a],
-                              "--ilut-across")) {  // keep ILUT factors across changes of the unknowns
-        mc.params.solver.ilut_reuse_across_changes = true;
-      } else if (!std::strcmp(argv[a], "--graded")) {  // start at the target diameter (with --refine)
-        mc.graded_start = true;
-      } else if (!std::strcmp(argv[a], "--refine")) {
-        if (a + 1 >= argc) {
-          std::fprintf(stderr, "channel --multi: --refine needs a diameter ratio R >= 1\n");
-          return 2;
-        }
-        if (!number("--refine", argv[++a], ratio)) return 2;
-        if (!(ratio >= 1.0)) {
-          std::fprintf(stderr, "channel --multi: --refine takes a diameter ratio >= 1 (got %g)\n", ratio);
-          return 2;
-        }
-      } else if (positional == 0) {
-        if (!number("L", argv[a], mc.L)) return 2;
-        ++positional;
-      } else if (positional == 1) {
-        if (!number("t_end", argv[a], mc.t_end)) return 2;
-        ++positional;
-      } else {
-        std::fprintf(
-            stderr,
-            "usage: channel --multi [L] [t_end] [--refine R [--graded]] [--neumann-points] [--thin-walls] "
-            "[--dt-ratio r] [--progress S] [--checkpoint FILE [--every S] [--stop-after S]] [--resume FILE] "
-            "[--ilut-across] (unexpected '%s')\n",
-            argv[a]);
-        return 2;
-      }
-    }
-    if (!(mc.t_end > mc.window)) {
-      std::fprintf(stderr, "channel --multi: t_end must exceed the %g s balance window (got %g)\n", mc.window,
-                   mc.t_end);
-      return 2;
-    }
-    if (mc.graded_start && !(ratio >= 1.0)) {
-      std::fprintf(stderr, "channel --multi: --graded needs --refine R (the target diameter it grades to)\n");
-      return 2;
-    }
+  if (opt.mode == mode::a2) return run_a2(opt);
+  if (opt.mode == mode::multi) {
+    mpskit::cases::multi_diameter_config mc = opt.multi;
+    const double ratio = opt.refine;  // --refine R: split 1:R entering the narrow section (issue #9's case)
     if (ratio >= 1.0) mpskit::cases::refine_narrow_section(mc, mc.L / ratio);
     const auto r = ratio >= 1.0
                        ? mpskit::cases::run_multi_diameter<mpskit::cases::multi_diameter_multires_scene>(mc)
@@ -346,20 +226,8 @@ int run(int argc, char** argv) {
                 static_cast<long long>(r.particles_end), r.L_min * 1e3, r.L_max * 1e3, r.splits, r.merges);
     return 0;
   }
-  for (int a = 1; a < argc; ++a) {
-    if (!std::strcmp(argv[a], "--full")) {
-      c.length = 0.1;
-      full = true;
-    } else if (!std::strcmp(argv[a], "--periodic-only")) {
-      periodic_only = true;
-    } else if (positional == 0) {
-      c.L = mpskit::cases::parse_number("channel: L", argv[a], 1e-12);
-      c.dt = 2.5e-4 * (c.L / 0.5e-3) * (c.L / 0.5e-3);  // the viscous limit 0.1 L²/ν scales with L²
-      ++positional;
-    } else {
-      c.t_end = mpskit::cases::parse_number("channel: t_end", argv[a], 1e-12);
-    }
-  }
+  const mpskit::cases::poiseuille_config c = opt.poiseuille;
+  const bool full = opt.full, periodic_only = opt.periodic_only;
   const mpskit::cases::poiseuille_exact ex{c.G, c.H, c.mu, c.rho};
   std::printf(
       "Poiseuille: H = %.1f mm, G = %.0f Pa/m, mu = %.2f Pa s, L = %.3f mm, dt = %.2e s, u_max = %.4f m/s\n",

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "cases/channel_options.hpp"
 #include "cases/duct.hpp"
 #include "cases/multi_diameter_channel.hpp"
 #include "cases/pipe.hpp"
@@ -1236,5 +1237,120 @@ TEST_SUITE("restart") {
     v.push_back(0);
     CHECK_THROWS_WITH_AS(io::load_simulation(write("44.mpscp", v), e),
                          doctest::Contains("'lsmps.counters' holds 44 values, expected 43"), mpskit::error);
+  }
+}
+
+// examples/channel.cpp's command line (cases/channel_options.hpp): the examples are not built in CI, so each
+// mode's readings and every kind of refusal are checked here.
+TEST_SUITE("bad_input") {
+  TEST_CASE("channel's command line: modes, positional numbers, options and refusals") {
+    const auto read = [](std::vector<const char*> args) {
+      args.insert(args.begin(), "channel");
+      return cases::read_channel_options(static_cast<int>(args.size()), args.data());
+    };
+    using mode = cases::channel_mode;
+    // The default mode: the 20 mm channel at 0.5 mm; L sets Δt = 0.1 L²/ν with it (2.5e-4 s at 0.5 mm).
+    const cases::channel_options d = read({});
+    CHECK(d.mode == mode::poiseuille);
+    CHECK(d.poiseuille.length == 0.02);
+    CHECK_FALSE(d.full);
+    const cases::channel_options p = read({"0.25e-3", "0.2", "--periodic-only"});
+    CHECK(p.poiseuille.L == 0.25e-3);
+    CHECK(p.poiseuille.dt == doctest::Approx(6.25e-5).epsilon(1e-14));
+    CHECK(p.poiseuille.t_end == 0.2);
+    CHECK(p.periodic_only);
+    CHECK(p.poiseuille.probe_times == std::vector<double>{0.05, 0.1});  // both inside the run
+    // probe times at or past t_end are dropped (the case would step on to them, beyond the end asked for)
+    CHECK(read({"0.5e-3", "0.07"}).poiseuille.probe_times == std::vector<double>{0.05});
+    CHECK(read({"0.5e-3", "0.005"}).poiseuille.probe_times.empty());
+    CHECK(read({"--pipe", "0.05"}).pipe.probe_times.empty());
+    const cases::channel_options f = read({"--full"});
+    CHECK(f.full);
+    CHECK(f.poiseuille.length == 0.1);
+    // Each mode and its positional numbers.
+    const cases::channel_options pipe = read({"--pipe", "0.1"});
+    CHECK(pipe.mode == mode::pipe);
+    CHECK(pipe.pipe.t_end == 0.1);
+    CHECK(pipe.pipe.probe_times == std::vector<double>{0.05});
+    const cases::channel_options duct = read({"--duct", "0.02", "1e-3"});
+    CHECK(duct.mode == mode::duct);
+    CHECK(duct.duct.t_end == 0.02);
+    CHECK(duct.duct.L == 1e-3);
+    CHECK(read({"--duct-multires", "0.03"}).duct.t_end == 0.03);
+    const cases::channel_options a2 = read({"--a2", "0.05", "--ratio", "2", "--pressure", "--no-single"});
+    CHECK(a2.mode == mode::a2);
+    CHECK(a2.a2_t_end == 0.05);
+    CHECK(a2.a2_ratio == 2.0);
+    CHECK(a2.a2_pressure);
+    CHECK_FALSE(a2.a2_single);
+    const cases::channel_options m = read({"--multi",
+                                           "0.5e-3",
+                                           "0.4",
+                                           "--refine",
+                                           "2",
+                                           "--graded",
+                                           "--neumann-points",
+                                           "--thin-walls",
+                                           "--dt-ratio",
+                                           "1.5",
+                                           "--progress",
+                                           "30",
+                                           "--checkpoint",
+                                           "ck.bin",
+                                           "--every",
+                                           "600",
+                                           "--stop-after",
+                                           "60",
+                                           "--resume",
+                                           "r.bin",
+                                           "--ilut-across"});
+    CHECK(m.mode == mode::multi);
+    CHECK(m.multi.L == 0.5e-3);
+    CHECK(m.multi.t_end == 0.4);
+    CHECK(m.refine == 2.0);
+    CHECK(m.multi.graded_start);
+    CHECK(m.multi.params.copy_row == scheme::copy_row_kind::neumann_points);
+    CHECK(m.multi.params.thin_walls);
+    CHECK(m.multi.params.time.ratio == 1.5);
+    CHECK(m.multi.progress_interval == 30.0);
+    CHECK(m.multi.pieces.checkpoint == "ck.bin");
+    CHECK(m.multi.pieces.checkpoint_interval == 600.0);
+    CHECK(m.multi.pieces.stop_after == 60.0);
+    CHECK(m.multi.pieces.resume == "r.bin");
+    CHECK(m.multi.params.solver.ilut_reuse_across_changes);
+    CHECK_NOTHROW(m.validate());
+    CHECK(read({"--multi"}).refine == 0.0);  // single resolution unless --refine
+    // Reading refusals: not wholly a number, not > 0 (or >= 1 for a ratio), a number beyond the mode's, an
+    // option of another mode, a missing value, an unknown option; each names its mode.
+    CHECK_THROWS_WITH_AS(read({"0.5mm"}), doctest::Contains("channel: L '0.5mm'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"-1"}), doctest::Contains("channel: L '-1': must be > 0"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"1e-3", "0.5", "7"}),
+                         doctest::Contains("unexpected '7' (at most L and t_end)"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--pipe", "0.1", "3"}), doctest::Contains("channel --pipe: unexpected '3'"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--duct", "0.1", "1e-3", "2"}), doctest::Contains("at most t_end and L"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--duct-multires", "0"}), doctest::Contains("t_end '0': must be > 0"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--a2", "--ratio", "0.5"}), doctest::Contains("--ratio '0.5': must be >= 1"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--multi", "--refine"}), doctest::Contains("--refine needs a value"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--multi", "--progress", "abc"}), doctest::Contains("--progress 'abc'"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--pipe", "--full"}),
+                         doctest::Contains("channel --pipe: unknown option '--full'"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--ratio", "2"}), doctest::Contains("channel: unknown option '--ratio'"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--multi", "--pressure"}), doctest::Contains("unknown option '--pressure'"),
+                         mpskit::error);
+    // Validation: --multi's end beyond its balance window, --graded only with --refine.
+    CHECK_THROWS_WITH_AS(read({"--multi", "1e-3", "0.05"}).validate(),
+                         doctest::Contains("must exceed the 0.1 s balance window"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--multi", "--graded"}).validate(),
+                         doctest::Contains("--graded needs --refine"), mpskit::error);
+    // The usage line names the mode's options.
+    CHECK(std::string(cases::channel_usage(mode::a2)).find("--ratio R") != std::string::npos);
+    CHECK(cases::read_channel_mode(2, std::vector<const char*>{"channel", "--multi"}.data()) == mode::multi);
   }
 }

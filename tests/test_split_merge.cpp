@@ -2380,8 +2380,8 @@ TEST_SUITE("bad_input") {
     CHECK_THROWS_WITH_AS(read({"--t_end", "1"}), doctest::Contains("unknown option '--t_end'"),
                          mpskit::error);
     // Validation, before any output: a given window not inside the run; knobs out of the scheme's range.
-    CHECK_THROWS_WITH_AS(read({"--t-end", "0.01", "--window", "0.02"}).validate(),
-                         doctest::Contains("--window 0.02 must be shorter than --t-end 0.01"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--t-end", "0.03", "--window", "0.05"}).validate(),
+                         doctest::Contains("--window 0.05 must be shorter than --t-end 0.03"), mpskit::error);
     CHECK_THROWS_WITH_AS(read({"--cprime", "1"}).validate(), doctest::Contains("c_prime_min"), mpskit::error);
     CHECK_THROWS_WITH_AS(read({"--alpha-o", "2"}).validate(), doctest::Contains("alpha_o"), mpskit::error);
     // A short --t-end without --window: the default window follows it (0.2 t_end).

@@ -1,6 +1,7 @@
 #pragma once
 // The command line of examples/gears.cpp: its options, their reading and their refusals. In a header so that
 // they are tested (label bad_input) although the examples are not built in CI.
+#include <cstdio>
 #include <string>
 
 #include "cases/cli.hpp"
@@ -22,8 +23,11 @@ struct gears_options {
   /// out of range (e.g. --cprime 1, which makes eq. 62's c′_min 0), checked as run_gears will use them
   /// (gears_config::scheme_params), also with --geometry-only (bad input either way).
   void validate() const {
-    if (window_given && !(c.t_end > c.window))
-      fail("gears: --window ", c.window, " must be shorter than --t-end ", c.t_end);
+    if (window_given && !(c.t_end > c.window)) {
+      char text[96];  // %g: the numbers as given, not to 17 digits
+      std::snprintf(text, sizeof text, "--window %g must be shorter than --t-end %g", c.window, c.t_end);
+      fail("gears: ", text);
+    }
     c.scheme_params().validate();
     c.boundary.validate();
   }
