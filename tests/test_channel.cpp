@@ -1253,7 +1253,32 @@ TEST_SUITE("bad_input") {
     const cases::channel_options d = read({});
     CHECK(d.mode == mode::poiseuille);
     CHECK(d.poiseuille.length == 0.02);
+    CHECK(d.poiseuille.L == 0.5e-3);
+    CHECK(d.poiseuille.dt == 2.5e-4);
+    CHECK(d.poiseuille.t_end == 0.5);
     CHECK_FALSE(d.full);
+    CHECK_FALSE(d.periodic_only);
+    // Each mode's defaults (the example's header): the pipe to 0.2 s probed at 0.05 s, the duct at 0.5 mm to
+    // 0.05 s, A2 at R = 4 to 0.1 s periodic with the single run, the multi-diameter channel at 1 mm to 0.3 s
+    // single resolution.
+    const cases::channel_options pd = read({"--pipe"});
+    CHECK(pd.pipe.t_end == 0.2);
+    CHECK(pd.pipe.probe_times == std::vector<double>{0.05});
+    const cases::channel_options dd = read({"--duct"});
+    CHECK(dd.duct.t_end == 0.05);
+    CHECK(dd.duct.L == 0.5e-3);
+    const cases::channel_options ad = read({"--a2"});
+    CHECK(ad.a2_t_end == 0.1);
+    CHECK(ad.a2_ratio == 4.0);
+    CHECK_FALSE(ad.a2_pressure);
+    CHECK(ad.a2_single);
+    const cases::channel_options md = read({"--multi"});
+    CHECK(md.multi.L == 1e-3);
+    CHECK(md.multi.t_end == 0.3);
+    CHECK(md.refine == 0.0);  // single resolution unless --refine
+    CHECK_NOTHROW(md.validate());
+    // --full in any position
+    CHECK(read({"0.25e-3", "0.2", "--full"}).poiseuille.length == 0.1);
     const cases::channel_options p = read({"0.25e-3", "0.2", "--periodic-only"});
     CHECK(p.poiseuille.L == 0.25e-3);
     CHECK(p.poiseuille.dt == doctest::Approx(6.25e-5).epsilon(1e-14));
@@ -1319,7 +1344,6 @@ TEST_SUITE("bad_input") {
     CHECK(m.multi.pieces.resume == "r.bin");
     CHECK(m.multi.params.solver.ilut_reuse_across_changes);
     CHECK_NOTHROW(m.validate());
-    CHECK(read({"--multi"}).refine == 0.0);  // single resolution unless --refine
     // Reading refusals: not wholly a number, not > 0 (or >= 1 for a ratio), a number beyond the mode's, an
     // option of another mode, a missing value, an unknown option; each names its mode.
     CHECK_THROWS_WITH_AS(read({"0.5mm"}), doctest::Contains("channel: L '0.5mm'"), mpskit::error);
@@ -1331,6 +1355,10 @@ TEST_SUITE("bad_input") {
     CHECK_THROWS_WITH_AS(read({"--duct", "0.1", "1e-3", "2"}), doctest::Contains("at most t_end and L"),
                          mpskit::error);
     CHECK_THROWS_WITH_AS(read({"--duct-multires", "0"}), doctest::Contains("t_end '0': must be > 0"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--duct-multires", "0.03", "1e-3"}), doctest::Contains("(at most t_end)"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--a2", "0.1", "0.2"}), doctest::Contains("channel --a2: unexpected '0.2'"),
                          mpskit::error);
     CHECK_THROWS_WITH_AS(read({"--a2", "--ratio", "0.5"}), doctest::Contains("--ratio '0.5': must be >= 1"),
                          mpskit::error);
@@ -1346,7 +1374,11 @@ TEST_SUITE("bad_input") {
                          mpskit::error);
     // Validation: --multi's end beyond its balance window, --graded only with --refine.
     CHECK_THROWS_WITH_AS(read({"--multi", "1e-3", "0.05"}).validate(),
-                         doctest::Contains("must exceed the 0.1 s balance window"), mpskit::error);
+                         doctest::Contains("t_end 0.05 must exceed the 0.1 s balance window"), mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--multi", "--dt-ratio", "3"}).validate(), doctest::Contains("ratio"),
+                         mpskit::error);
+    CHECK_THROWS_WITH_AS(read({"--multi", "--every", "600"}).validate(),
+                         doctest::Contains("channel --multi: checkpoint_interval (--every)"), mpskit::error);
     CHECK_THROWS_WITH_AS(read({"--multi", "--graded"}).validate(),
                          doctest::Contains("--graded needs --refine"), mpskit::error);
     // The usage line names the mode's options.

@@ -78,10 +78,13 @@ struct channel_options {
   multi_diameter_config multi{};
   double refine = 0.0;
 
-  /// Refuses what reading alone cannot (mpskit::error naming the option): --multi's t_end not beyond its
-  /// balance window, --graded without --refine.
+  /// Refuses what reading alone cannot (mpskit::error naming the option or the parameter): --multi's t_end
+  /// not beyond its balance window, --graded without --refine, a --dt-ratio outside [1.001, 2] (the time-step
+  /// controller's check), --every or --stop-after without --checkpoint (run_pieces' check).
   void validate() const {
     if (mode != channel_mode::multi) return;
+    multi.params.time.validate();
+    multi.pieces.validate("channel --multi");
     if (!(multi.t_end > multi.window)) {
       char text[96];  // %g: the numbers as given, not to 17 digits
       std::snprintf(text, sizeof text, "t_end %g must exceed the %g s balance window", multi.t_end,
